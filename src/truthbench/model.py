@@ -1,0 +1,314 @@
+"""The structural model: M, C, K with inputs and outputs; modes, state space, FRF.
+
+:class:`StructuralModel` is a thin frozen container. The numerics are functions:
+:func:`solve_modes` (mass-normalised real modes, rigid-body modes included),
+:func:`modal_system` (the modal first-order form, truncated to chosen modes) and
+:func:`frf` (the frequency response by modal superposition).
+
+Damping is the sum of a physical part ``C`` (dashpots, joints: generally not
+proportional) and a modal part (a damping ratio per elastic mode). When the modal
+damping matrix ``Phi^T C Phi + diag(2 zeta omega)`` is diagonal the FRF is the classical
+real-mode sum; otherwise it uses the complex modes of the modal first-order form, which
+is exact for that form (no proportional-damping approximation).
+
+FRF arrays are complex with shape (n_freq, n_out, n_in). Output rows act on the DOF
+vector ``q``; each output is a displacement, velocity or acceleration of that row
+(strain is a displacement-type output).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from truthbench.errors import ModelError
+
+QUANTITIES = ("displacement", "velocity", "acceleration")
+"""Output quantities; the FRF of each is ``(j omega)^k`` times the displacement FRF."""
+
+_DENSE_LIMIT = 600  # DOFs above which the sparse shift-invert eigensolver is used
+
+
+def _as_csr(a) -> sp.csr_matrix:
+    return a.tocsr() if sp.issparse(a) else sp.csr_matrix(np.asarray(a, dtype=float))
+
+
+@dataclass(frozen=True)
+class StructuralModel:
+    """Second-order model ``M q'' + C q' + K q = B u``, ``y = C_out {q, q', q''}``.
+
+    Parameters
+    ----------
+    M, C, K : sparse or dense, shape (n, n)
+        Mass (kg), damping (N s/m) and stiffness (N/m) in consistent SI units.
+    B : ndarray, shape (n, n_in)
+        Force (or moment) distribution of each input.
+    C_out : ndarray, shape (n_out, n)
+        Output rows on the DOF vector.
+    quantities : tuple of str, length n_out
+        "displacement", "velocity" or "acceleration" for each output.
+    modal_damping_ratio : float or ndarray
+        Damping ratio added to every elastic mode (rigid-body modes get none), or one
+        value per mode of the eigensolution (then its length fixes the mode count).
+    dof_labels, input_labels, output_labels : tuple of str
+    node_positions_m : ndarray, shape (n_nodes, 3), optional
+        For mode descriptions and plots.
+    """
+
+    M: sp.csr_matrix
+    C: sp.csr_matrix
+    K: sp.csr_matrix
+    B: np.ndarray
+    C_out: np.ndarray
+    quantities: tuple[str, ...]
+    modal_damping_ratio: float | np.ndarray = 0.0
+    dof_labels: tuple[str, ...] = ()
+    input_labels: tuple[str, ...] = ()
+    output_labels: tuple[str, ...] = ()
+    node_positions_m: np.ndarray | None = None
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        M, C, K = _as_csr(self.M), _as_csr(self.C), _as_csr(self.K)
+        n = M.shape[0]
+        for name, mat in (("M", M), ("C", C), ("K", K)):
+            if mat.shape != (n, n):
+                raise ModelError(f"matrix {name} has shape {mat.shape}; expected ({n}, {n})")
+        B = np.atleast_2d(np.asarray(self.B, dtype=float))
+        if B.shape[0] != n:
+            raise ModelError(f"input matrix B has {B.shape[0]} rows; expected {n}")
+        Co = np.atleast_2d(np.asarray(self.C_out, dtype=float))
+        if Co.shape[1] != n:
+            raise ModelError(f"output matrix C_out has {Co.shape[1]} columns; expected {n}")
+        q = tuple(self.quantities)
+        if len(q) != Co.shape[0]:
+            raise ModelError(f"quantities has {len(q)} entries; expected one per output "
+                             f"({Co.shape[0]})")
+        bad = [x for x in q if x not in QUANTITIES]
+        if bad:
+            raise ModelError(f"unknown output quantity {bad[0]!r}; expected one of {QUANTITIES}")
+        for a in (B, Co):
+            a.setflags(write=False)
+        object.__setattr__(self, "M", M)
+        object.__setattr__(self, "C", C)
+        object.__setattr__(self, "K", K)
+        object.__setattr__(self, "B", B)
+        object.__setattr__(self, "C_out", Co)
+        object.__setattr__(self, "quantities", q)
+        for name, count in (("dof_labels", n), ("input_labels", B.shape[1]),
+                            ("output_labels", Co.shape[0])):
+            labels = tuple(getattr(self, name)) or tuple(f"{name[0]}{i}" for i in range(count))
+            if len(labels) != count:
+                raise ModelError(f"{name} has {len(labels)} entries; expected {count}")
+            object.__setattr__(self, name, labels)
+
+    @property
+    def n_dofs(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def n_inputs(self) -> int:
+        return self.B.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        return self.C_out.shape[0]
+
+    def modes(self, n_modes: int | None = None) -> Modes:
+        """Mass-normalised real modes; see :func:`solve_modes`."""
+        return solve_modes(self.M, self.K, n_modes)
+
+    def frf(self, freq_hz, n_modes: int | None = None, modes: Modes | None = None) -> np.ndarray:
+        """FRF by modal superposition, shape (n_freq, n_out, n_in); see :func:`frf`."""
+        return frf(self, freq_hz, modes if modes is not None else self.modes(n_modes))
+
+    def state_space(self, n_modes: int | None = None, modes: Modes | None = None):
+        """``control.StateSpace`` of the modal first-order form (states: eta, eta')."""
+        import control
+
+        A, B, C, D = modal_system(self, modes if modes is not None else self.modes(n_modes))
+        return control.ss(A, B, C, D)
+
+    def with_io(self, B=None, C_out=None, quantities=None, input_labels=None,
+                output_labels=None) -> StructuralModel:
+        """A copy with other inputs and/or outputs (same structure)."""
+        from dataclasses import replace
+
+        kw = {}
+        if B is not None:
+            kw.update(B=B, input_labels=input_labels or ())
+        if C_out is not None:
+            kw.update(C_out=C_out, quantities=quantities, output_labels=output_labels or ())
+        return replace(self, **kw)
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Real modes of ``K phi = omega^2 M phi`` with ``Phi^T M Phi = I``.
+
+    Attributes
+    ----------
+    omega_rad_s : ndarray, shape (m,)
+        Natural frequencies, rad/s, ascending; rigid-body modes are exactly 0.
+    shapes : ndarray, shape (n, m)
+        Mass-normalised mode shapes.
+    rigid : ndarray of bool, shape (m,)
+        Rigid-body (zero-frequency) modes.
+    """
+
+    omega_rad_s: np.ndarray
+    shapes: np.ndarray
+    rigid: np.ndarray
+
+    @property
+    def freq_hz(self) -> np.ndarray:
+        return self.omega_rad_s / (2.0 * np.pi)
+
+    @property
+    def n_modes(self) -> int:
+        return len(self.omega_rad_s)
+
+
+def solve_modes(M, K, n_modes: int | None = None, *, rigid_tol: float = 1e-12) -> Modes:
+    """Mass-normalised real modes, rigid-body modes handled.
+
+    Dense ``scipy.linalg.eigh`` for small models or when all modes are wanted; sparse
+    shift-invert ``eigsh`` about a negative shift (so that a singular K, i.e. rigid-body
+    modes, is no problem) for the lowest ``n_modes`` of large models.
+
+    Parameters
+    ----------
+    M, K : sparse or dense, shape (n, n)
+    n_modes : int, optional
+        Number of lowest modes (default all).
+    rigid_tol : float
+        A mode is rigid when ``omega^2 < rigid_tol * trace(K)/trace(M)``; its frequency is
+        then set to exactly 0 (trace(K)/trace(M) is an average eigenvalue, so this is a
+        relative test).
+
+    Returns
+    -------
+    Modes
+    """
+    n = M.shape[0]
+    if n_modes is not None and not 1 <= n_modes <= n:
+        raise ModelError(f"n_modes must lie in 1..{n}; got {n_modes}")
+    Ms, Ks = _as_csr(M), _as_csr(K)
+    scale = Ks.diagonal().sum() / Ms.diagonal().sum()
+    if n_modes is None or n <= _DENSE_LIMIT or n_modes > n // 2:
+        sub = None if n_modes is None else (0, n_modes - 1)
+        lam, Phi = sla.eigh(Ks.toarray(), Ms.toarray(), subset_by_index=sub)
+    else:
+        # shift-invert about a small negative shift: K - sigma M is positive definite
+        sigma = -1e-6 * scale
+        lam, Phi = spla.eigsh(Ks.tocsc(), k=n_modes, M=Ms.tocsc(), sigma=sigma, which="LM")
+        order = np.argsort(lam)
+        lam, Phi = lam[order], Phi[:, order]
+    rigid = lam < rigid_tol * scale
+    lam = np.where(rigid, 0.0, lam)
+    # enforce mass normalisation exactly (eigsh tolerance, degenerate rigid sets)
+    norms = np.sqrt(np.einsum("ij,ij->j", Phi, Ms @ Phi))
+    Phi = Phi / norms
+    # a deterministic sign: largest-magnitude component positive
+    idx = np.argmax(np.abs(Phi), axis=0)
+    Phi = Phi * np.sign(Phi[idx, np.arange(Phi.shape[1])])
+    return Modes(np.sqrt(lam), Phi, rigid)
+
+
+def modal_damping_matrix(model: StructuralModel, modes: Modes) -> np.ndarray:
+    """``Xi = Phi^T C Phi + diag(2 zeta_i omega_i)``, shape (m, m), 1/s."""
+    Phi = modes.shapes
+    zeta = np.broadcast_to(np.asarray(model.modal_damping_ratio, dtype=float), modes.omega_rad_s.shape)
+    if np.any(zeta < 0):
+        raise ModelError("modal_damping_ratio must be >= 0")
+    Xi = Phi.T @ (model.C @ Phi) if model.C.nnz else np.zeros((modes.n_modes,) * 2)
+    return Xi + np.diag(2.0 * zeta * modes.omega_rad_s)
+
+
+def _output_powers(quantities: Sequence[str]) -> np.ndarray:
+    return np.array([QUANTITIES.index(q) for q in quantities])
+
+
+def modal_system(model: StructuralModel, modes: Modes):
+    """Modal first-order form ``x = [eta; eta']``.
+
+    Returns
+    -------
+    A : ndarray, shape (2m, 2m)
+    B : ndarray, shape (2m, n_in)
+    C : ndarray, shape (n_out, 2m)
+    D : ndarray, shape (n_out, n_in)
+        Non-zero only for acceleration outputs.
+    """
+    m = modes.n_modes
+    Om2 = np.diag(modes.omega_rad_s**2)
+    Xi = modal_damping_matrix(model, modes)
+    Bm = modes.shapes.T @ model.B
+    Cm = model.C_out @ modes.shapes
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Om2, -Xi]])
+    B = np.vstack([np.zeros((m, model.n_inputs)), Bm])
+    C = np.zeros((model.n_outputs, 2 * m))
+    D = np.zeros((model.n_outputs, model.n_inputs))
+    for i, p in enumerate(_output_powers(model.quantities)):
+        if p == 0:
+            C[i, :m] = Cm[i]
+        elif p == 1:
+            C[i, m:] = Cm[i]
+        else:
+            C[i] = np.concatenate([-Cm[i] @ Om2, -Cm[i] @ Xi])
+            D[i] = Cm[i] @ Bm
+    return A, B, C, D
+
+
+def frf(model: StructuralModel, freq_hz, modes: Modes) -> np.ndarray:
+    """Frequency response by modal superposition.
+
+    Parameters
+    ----------
+    model : StructuralModel
+    freq_hz : array_like, shape (n_freq,)
+        Frequencies, Hz (0 is allowed unless there are undamped rigid-body modes).
+    modes : Modes
+        The modal basis (all or the lowest modes).
+
+    Returns
+    -------
+    H : ndarray, complex, shape (n_freq, n_out, n_in)
+        Output per input in SI units (e.g. (m/s^2)/N for acceleration per force).
+    """
+    w = 2.0 * np.pi * np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    s = 1j * w
+    Xi = modal_damping_matrix(model, modes)
+    Bm = modes.shapes.T @ model.B  # (m, n_in)
+    Cm = model.C_out @ modes.shapes  # (n_out, m)
+    off = Xi - np.diag(np.diag(Xi))
+    if not np.any(np.abs(off) > 1e-12 * max(np.abs(Xi).max(), 1e-300)):
+        # classical modes: H = Cm diag(1 / (w_i^2 - w^2 + j w xi_ii)) Bm
+        den = modes.omega_rad_s[None, :] ** 2 + s[:, None] ** 2 + s[:, None] * np.diag(Xi)
+        H = np.einsum("om,fm,mi->foi", Cm, 1.0 / den, Bm, optimize=True)
+    else:
+        H = _complex_mode_frf(modes.omega_rad_s, Xi, Bm, Cm, s)
+    p = _output_powers(model.quantities)
+    return H * (s[:, None, None] ** p[None, :, None])
+
+
+def _complex_mode_frf(omega, Xi, Bm, Cm, s):
+    """Displacement FRF of the modal form with non-diagonal damping (complex modes)."""
+    m = len(omega)
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-np.diag(omega**2), -Xi]])
+    lam, V = sla.eig(A)
+    if np.linalg.cond(V) < 1e10:
+        L = Cm @ V[:m]  # displacement rows of the state
+        R = np.linalg.solve(V, np.vstack([np.zeros_like(Bm), Bm]))
+        return np.einsum("ok,fk,ki->foi", L, 1.0 / (s[:, None] - lam[None, :]), R,
+                         optimize=True)
+    # defective (e.g. undamped rigid modes coupled to a damper): solve per frequency
+    Z = (omega**2)[None, :, None] * np.eye(m)[None] + s[:, None, None] * Xi[None] \
+        + (s**2)[:, None, None] * np.eye(m)[None]
+    X = np.linalg.solve(Z, np.broadcast_to(Bm, (len(s),) + Bm.shape))
+    return np.einsum("om,fmi->foi", Cm, X)

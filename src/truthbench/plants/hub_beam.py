@@ -1,0 +1,54 @@
+"""The hub-beam: a rigid hub turning about its vertical axis with a clamped tube beam.
+
+The hub (inertia ``hub_inertia_kg_m2`` about global z, radius neglected) sits at the
+origin; the beam runs along x and bends in the plane of rotation (x-y) and out of it
+(x-z). The beam root node is the hub: its translations and its rotations about x and y
+are clamped (a stiff bearing), its rotation about z is the hub angle. A torque motor
+drives the hub (actuator ``hub``/``rz``) and a concentrated rotational dashpot
+``hub_damping_n_m_s_rad`` acts between hub and ground, so the structure's damping is
+not proportional. Sensors: hub angle and rate (``hub``/``rz`` displacement or
+velocity), beam accelerations at stations, root bending strain (``root``/``y`` strain).
+
+With ``eta = J_h / (rho A L^3)`` the in-plane frequencies follow the hub-beam frequency
+equation of METHOD section 8.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from truthbench.fe.assembly import Lumped, assemble, finish_structure, straight_member
+from truthbench.plants.base import Assembled, ParameterInfo, Plant, register_plant
+from truthbench.plants.free_free_beam import ALUMINIUM_TUBE
+
+
+@register_plant
+class HubBeam(Plant):
+    """Rigid hub plus clamped tube beam (see module docstring)."""
+
+    kind: ClassVar[str] = "hub_beam"
+    parameters: ClassVar[dict[str, ParameterInfo]] = {
+        **ALUMINIUM_TUBE,
+        # eta = 1 for the nominal tube: J_h = rho A L^3 (METHOD section 9)
+        "hub_inertia_kg_m2": ParameterInfo(1.9385, "kg m^2", "hub inertia about its axis"),
+        "hub_damping_n_m_s_rad": ParameterInfo(
+            5.0, "N m s/rad", "concentrated rotational dashpot at the hub", positive=False),
+    }
+    default_stations: ClassVar[dict[str, float]] = {
+        "hub": 0.0, "root": 0.0, "quarter": 0.25, "mid": 0.5, "three_quarter": 0.75,
+        "tip": 1.0,
+    }
+
+    def _assemble(self, p):
+        x = self.node_x_m(p)
+        mesh = straight_member([0, 0, 0], [x[-1], 0, 0], self.n_elements,
+                               self.element_groups())
+        mesh = type(mesh)(np.column_stack([x, 0 * x, 0 * x]), mesh.elements, mesh.groups)
+        props = self.group_properties(p)
+        K, M = assemble(mesh, props, timoshenko=self.timoshenko)
+        lumped = Lumped(masses=((5, p["hub_inertia_kg_m2"]),),
+                        dashpots=((5, p["hub_damping_n_m_s_rad"]),))
+        Mf, Cf, Kf, free = finish_structure(K, M, mesh.n_dofs, lumped, clamped=range(5))
+        return Assembled(Mf, Cf, Kf, free, mesh.dof_labels(), mesh.nodes_m, props)
