@@ -86,8 +86,8 @@ class Plant:
         if self.n_elements % self.n_groups:
             raise ModelError(f"n_elements ({self.n_elements}) must be a multiple of n_groups "
                              f"({self.n_groups}) so that every group has whole elements")
-        for name, frac in self.station_fractions().items():
-            self.station_node(name)  # validates
+        for name in self.stations:  # user stations must lie on nodes
+            self.station_node(name)
 
     # ---- groups and parameters -------------------------------------------------
     @property

@@ -1,0 +1,125 @@
+"""StructuralModel: modes, state space and modal-superposition FRF against
+python-control and scipy."""
+
+import control
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from truthbench.errors import ModelError
+from truthbench.fe.assembly import assemble, finish_structure, straight_member
+from truthbench.model import StructuralModel, solve_modes
+from truthbench.plants import Actuator, Sensor, make_plant
+
+FREQ = np.linspace(0.7, 300.0, 900)
+
+
+def _control_frf(sys, freq_hz):
+    r = control.frequency_response(sys, 2 * np.pi * freq_hz)
+    H = np.asarray(r.complex).reshape(sys.noutputs, sys.ninputs, -1)
+    return np.moveaxis(H, -1, 0)
+
+
+def _rel_error_away_from_zeros(H, Hc):
+    """Max relative error where |Hc| exceeds 1e-6 of its output's largest value (over
+    frequencies and inputs): zeros and structurally zero cross terms are excluded."""
+    row_max = np.abs(Hc).max(axis=(0, 2), keepdims=True)
+    mask = np.abs(Hc) > 1e-6 * row_max
+    return (np.abs(H - Hc)[mask] / np.abs(Hc)[mask]).max()
+
+
+def _hub_model(**params):
+    plant = make_plant("hub_beam", n_elements=16)
+    return plant.build(params, [Actuator("hub", "rz"), Actuator("tip", "y")],
+                       [Sensor("tip", "y"), Sensor("root", "y", "strain"),
+                        Sensor("hub", "rz", "velocity"), Sensor("mid", "y", "displacement")])
+
+
+def test_modes_are_mass_normalised_and_diagonalise_k():
+    model = _hub_model()
+    md = model.modes()
+    Phi = md.shapes
+    np.testing.assert_allclose(Phi.T @ (model.M @ Phi), np.eye(md.n_modes), atol=1e-9)
+    np.testing.assert_allclose(Phi.T @ (model.K @ Phi), np.diag(md.omega_rad_s**2),
+                               atol=1e-8 * md.omega_rad_s.max() ** 2)
+    assert md.rigid.sum() == 1  # the hub rotation
+
+
+def test_sparse_shift_invert_equals_dense_on_200_elements():
+    mesh = straight_member([0, 0, 0], [2.0, 0, 0], 200)
+    props = dict(E_pa=70e9, nu=0.3, rho_kg_m3=2700.0, r_m=0.012, t_m=0.0015)
+    K, M = assemble(mesh, {"beam": props})
+    Mf, _, Kf, _ = finish_structure(K, M, mesh.n_dofs)
+    sparse = solve_modes(Mf, Kf, 20)
+    lam, vec = sla.eigh(Kf.toarray(), Mf.toarray(), subset_by_index=(0, 19))
+    dense = np.sqrt(np.clip(lam, 0, None))
+    assert sparse.rigid.sum() == 6
+    flex = ~sparse.rigid
+    # dense eigh loses ~eps * omega_max^2 / omega^2 on the low modes (about 1e-6 here)
+    np.testing.assert_allclose(sparse.omega_rad_s[flex], dense[flex], rtol=2e-6)
+
+    def residual(lam_, Phi):  # ||K phi - lam M phi|| / ||K phi||
+        R = Kf @ Phi - (Mf @ Phi) * lam_
+        return np.linalg.norm(R, axis=0) / np.linalg.norm(Kf @ Phi, axis=0)
+
+    r_sparse = residual(sparse.omega_rad_s[flex] ** 2, sparse.shapes[:, flex])
+    r_dense = residual(lam[flex], vec[:, flex])
+    assert np.all(r_sparse < 1e-8), r_sparse
+    assert np.median(r_sparse) <= np.median(r_dense)
+
+
+@pytest.mark.parametrize("hub_damping", [0.0, 5.0])
+def test_modal_frf_equals_python_control_on_same_state_space(hub_damping):
+    """Both the classical (diagonal) and complex-mode paths; relative 1e-8."""
+    model = _hub_model(hub_damping_n_m_s_rad=hub_damping)
+    md = model.modes(40)
+    H = model.frf(FREQ, modes=md)
+    Hc = _control_frf(model.state_space(modes=md), FREQ)
+    assert H.shape == (len(FREQ), 4, 2)
+    assert _rel_error_away_from_zeros(H, Hc) < 1e-8
+
+
+def test_defective_rigid_modes_with_nonproportional_damping():
+    """Undamped rigid modes beside a dashpot make the modal state matrix defective;
+    the FRF falls back to a per-frequency solve and still equals python-control."""
+    plant = make_plant("free_free_beam", n_elements=10)
+    model = plant.build({"suspension_damping_n_s_m": 2.0}, [Actuator("end_a", "y"),
+                        Actuator("end_a", "z")], [Sensor("mid", "y"), Sensor("end_b", "z")])
+    md = model.modes()
+    H = model.frf(FREQ, modes=md)
+    Hc = _control_frf(model.state_space(modes=md), FREQ)
+    assert _rel_error_away_from_zeros(H, Hc) < 1e-8
+
+
+def test_all_modes_equal_physical_state_space():
+    """Modal superposition with every mode equals the physical first-order model
+    x = [q; q'], A = [[0, I], [-M^-1 K, -M^-1 C]] evaluated by python-control."""
+    model = _hub_model(modal_damping_ratio=0.0)  # physical damping only
+    Mi = np.linalg.inv(model.M.toarray())
+    n = model.n_dofs
+    A = np.block([[np.zeros((n, n)), np.eye(n)],
+                  [-Mi @ model.K.toarray(), -Mi @ model.C.toarray()]])
+    B = np.vstack([np.zeros((n, 2)), Mi @ model.B])
+    C = np.hstack([model.C_out, np.zeros((4, n))])
+    C[2] = np.concatenate([np.zeros(n), model.C_out[2]])  # the velocity output
+    C[0] = model.C_out[0] @ A[n:]  # the acceleration output: q'' = -M^-1 (K q + C q') + ...
+    D = np.zeros((4, 2))
+    D[0] = model.C_out[0] @ B[n:]
+    assert model.quantities[0] == "acceleration"
+    sys = control.ss(A, B, C, D)
+    Hc = _control_frf(sys, FREQ)
+    H = model.frf(FREQ)
+    # the physical form carries M^-1 and eigenvalues spread over ~1e10 (axial modes), so
+    # python-control's evaluation of it loses about 7 digits; 1e-6 is that loss, not ours
+    assert _rel_error_away_from_zeros(H, Hc) < 1e-6
+
+
+def test_model_validation_errors():
+    M = sp.eye(3)
+    with pytest.raises(ModelError, match="input matrix B has 2 rows; expected 3"):
+        StructuralModel(M, M, M, np.zeros((2, 1)), np.zeros((1, 3)), ("displacement",))
+    with pytest.raises(ModelError, match="unknown output quantity 'jerk'"):
+        StructuralModel(M, M, M, np.zeros((3, 1)), np.zeros((1, 3)), ("jerk",))
+    with pytest.raises(ModelError, match="n_modes"):
+        solve_modes(M, M, 7)
