@@ -206,7 +206,10 @@ def solve_modes(M, K, n_modes: int | None = None, *, rigid_tol: float = 1e-12) -
     else:
         # shift-invert about a small negative shift: K - sigma M is positive definite
         sigma = -1e-6 * scale
-        lam, Phi = spla.eigsh(Ks.tocsc(), k=n_modes, M=Ms.tocsc(), sigma=sigma, which="LM")
+        # a fixed start vector keeps ARPACK (and so every result) reproducible
+        v0 = np.linspace(1.0, 2.0, n)
+        lam, Phi = spla.eigsh(Ks.tocsc(), k=n_modes, M=Ms.tocsc(), sigma=sigma, which="LM",
+                              v0=v0)
         order = np.argsort(lam)
         lam, Phi = lam[order], Phi[:, order]
     rigid = lam < rigid_tol * scale
