@@ -1,0 +1,277 @@
+"""Finite-difference model updating in the frequency domain (METHOD 5.1, Eq. 10.12-10.21).
+
+The data are FRFs ``G_D`` (any stacking of tests, frequency lines and SISO pairs); the
+model predicts the same array ``G_M(theta)``. With parameters written relative to their
+starting values, ``theta_k = theta_0k (1 + p_k)``, the sensitivity matrix ``S`` stacks
+the finite-difference columns ``dG/dp_k`` over all lines and pairs, real and imaginary
+parts one above the other, so that ``S dp = vec(G_D - G_M)`` has a real solution. It is
+solved by a (weighted) least-squares pseudoinverse and iterated: the model is
+re-evaluated at the new parameters and the sensitivities recomputed, until the
+relative parameter change stops.
+
+Identifiability is checked at every iteration from the singular values of the weighted
+``S``: a relative singular value below ``rcond`` means a combination of parameters does
+not change the FRFs (METHOD section 2: a change in t equals equal changes in E and rho),
+and :class:`~truthbench.errors.IdentifiabilityError` names that combination.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from truthbench.errors import IdentifiabilityError
+
+
+@dataclass(frozen=True)
+class UpdateResult:
+    """Outcome of a model update.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Updated parameters.
+    initial, values : ndarray, shape (p,)
+        Starting and final parameter values (in the parameters' own units).
+    history : ndarray, shape (n_iter + 1, p)
+        Parameter values at the start and after every iteration.
+    cost_history : ndarray, shape (n_iter + 1,)
+        Weighted cost ``J = ||W (G_D - G_M)||^2`` at each entry of ``history``.
+    singular_values : ndarray, shape (p,)
+        Singular values of the weighted sensitivity matrix at the final iterate.
+    condition_number : float
+        Their ratio, largest over smallest.
+    correlation : ndarray, shape (p, p)
+        Parameter correlation matrix from ``(S^T S)^-1`` (how far the estimates move
+        together; off-diagonal values near +-1 mean poorly separated parameters).
+    converged : bool
+    method : str
+    """
+
+    names: tuple[str, ...]
+    initial: np.ndarray
+    values: np.ndarray
+    history: np.ndarray
+    cost_history: np.ndarray
+    singular_values: np.ndarray
+    condition_number: float
+    correlation: np.ndarray
+    converged: bool
+    method: str = "finite_difference"
+
+    @property
+    def n_iterations(self) -> int:
+        return len(self.history) - 1
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(zip(self.names, self.values.tolist(), strict=True))
+
+
+def check_overdetermined(n_pairs: int, n_parameters: int, *, context: str = "update") -> None:
+    """Raise unless ``m r > p`` (METHOD 5.1): more SISO transfer functions than
+    parameters."""
+    if n_pairs <= n_parameters:
+        raise IdentifiabilityError(
+            f"{context}: the finite-difference method needs more SISO transfer functions "
+            f"than parameters (m r > p); got m r = {n_pairs} for p = {n_parameters} "
+            f"parameters. Add sensors, actuators or tests, or update fewer parameters.")
+
+
+def _stack(z: np.ndarray) -> np.ndarray:
+    """Real and imaginary parts one above the other, shape (2 N, ...)."""
+    z = z.reshape(z.shape[0], -1) if z.ndim > 1 else z
+    return np.concatenate([z.real, z.imag], axis=0)
+
+
+def sensitivity_matrix(
+    predict: Callable[[Mapping[str, float]], np.ndarray],
+    theta: Mapping[str, float],
+    names: Sequence[str],
+    *,
+    relative_step: float = 1e-4,
+    scheme: str = "central",
+    G0: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Finite-difference FRF sensitivities to relative parameter changes (Eq. 10.17).
+
+    Parameters
+    ----------
+    predict : callable
+        ``predict(theta) -> G``, complex array of any fixed shape.
+    theta : mapping
+        The linearisation point (all model parameters; ``names`` are perturbed).
+    names : sequence of str
+    relative_step : float
+        Step ``h`` in ``theta_k (1 +- h)``.
+    scheme : {"central", "forward"}
+        Central differences have O(h^2) error (needed to see exact collinearity such
+        as t against E and rho); forward is the chapter's Eq. 10.17 and costs half.
+    G0 : ndarray, optional
+        ``predict(theta)`` if already known.
+
+    Returns
+    -------
+    S : ndarray, complex, shape (G.size, p)
+        ``dG / dp_k`` per unit relative change of each parameter.
+    G0 : ndarray
+        The prediction at ``theta``.
+    """
+    if scheme not in ("central", "forward"):
+        raise ValueError(f"scheme must be 'central' or 'forward'; got {scheme!r}")
+    if G0 is None:
+        G0 = np.asarray(predict(theta))
+    cols = []
+    for name in names:
+        up = dict(theta)
+        up[name] = theta[name] * (1 + relative_step)
+        Gp = np.asarray(predict(up))
+        if scheme == "forward":
+            cols.append((Gp - G0).ravel() / relative_step)
+        else:
+            dn = dict(theta)
+            dn[name] = theta[name] * (1 - relative_step)
+            cols.append((Gp - np.asarray(predict(dn))).ravel() / (2 * relative_step))
+    return np.column_stack(cols), G0
+
+
+def _unidentifiable_message(names, s, Vt, rcond) -> str:
+    worst = Vt[-1]
+    worst = worst / np.abs(worst).max()
+    parts = [f"{c:+.2f}*d({n})" for n, c in zip(names, worst, strict=True) if abs(c) > 0.05]
+    return (f"parameters cannot be separated: the relative singular value "
+            f"{s[-1] / s[0]:.1e} of the sensitivity matrix is below {rcond:.0e}; the FRFs "
+            f"do not change along {' '.join(parts)} (relative changes). Drop one of these "
+            f"parameters or add data that separates them (METHOD section 2: a change in "
+            f"t_m looks exactly like equal changes in E_pa and rho_kg_m3).")
+
+
+def finite_difference_update(
+    predict: Callable[[Mapping[str, float]], np.ndarray],
+    data: np.ndarray,
+    theta0: Mapping[str, float],
+    names: Sequence[str],
+    *,
+    n_pairs: int,
+    weights: np.ndarray | None = None,
+    max_iterations: int = 20,
+    tolerance: float = 1e-6,
+    relative_step: float = 1e-4,
+    scheme: str = "central",
+    rcond: float = 1e-6,
+) -> UpdateResult:
+    """Iterated finite-difference frequency-domain update (METHOD 5.1).
+
+    Parameters
+    ----------
+    predict : callable
+        ``predict(theta) -> G_M``, complex, same shape as ``data``.
+    data : ndarray, complex
+        Measured FRFs ``G_D`` (any shape, e.g. (n_lines, n_out, n_in) stacked over tests).
+    theta0 : mapping
+        Starting parameter values (all model parameters).
+    names : sequence of str
+        Parameters to update (p of them).
+    n_pairs : int
+        Number of SISO transfer functions in the data (``m r``), checked against p.
+    weights : ndarray, optional
+        Non-negative real weight of every data entry (frequency weighting), same shape
+        as ``data``; the cost is ``sum |w (G_D - G_M)|^2``.
+    max_iterations : int
+    tolerance : float
+        Stop when the largest relative parameter change of an iteration is below it.
+    relative_step, scheme
+        Finite differences, see :func:`sensitivity_matrix`.
+    rcond : float
+        Relative singular value below which the problem is declared unidentifiable.
+
+    Returns
+    -------
+    UpdateResult
+
+    Raises
+    ------
+    IdentifiabilityError
+        ``m r <= p``, or a parameter combination the data cannot see.
+    """
+    names = tuple(names)
+    p = len(names)
+    if p == 0:
+        raise ValueError("no parameters to update: 'parameters' is empty")
+    missing = [n for n in names if n not in theta0]
+    if missing:
+        raise ValueError(f"parameters {missing} are not model parameters; expected names "
+                         f"from {sorted(theta0)}")
+    if any(theta0[n] == 0 for n in names):
+        raise ValueError("relative updating needs non-zero starting values; got 0 for "
+                         f"{[n for n in names if theta0[n] == 0]}")
+    check_overdetermined(n_pairs, p)
+    data = np.asarray(data)
+    w = np.ones(data.shape) if weights is None else np.asarray(weights, dtype=float)
+    if w.shape != data.shape:
+        raise ValueError(f"weights must have the data's shape {data.shape}; got {w.shape}")
+    if np.any(w < 0) or not np.all(np.isfinite(w)):
+        raise ValueError("weights must be finite and non-negative")
+    w_flat = w.ravel()
+
+    theta = dict(theta0)
+    base = np.array([theta0[n] for n in names], dtype=float)
+
+    def cost(G):
+        return float(np.sum(np.abs(w * (data - G)) ** 2))
+
+    G = np.asarray(predict(theta))
+    if G.shape != data.shape:
+        raise ValueError(f"predict returned shape {G.shape}; data has shape {data.shape}")
+    history = [base.copy()]
+    costs = [cost(G)]
+    converged = False
+    s = Vt = None
+    mu = 0.0  # Levenberg-Marquardt damping, 0 = plain Gauss-Newton (Eq. 10.21)
+    dx = np.zeros(p)
+    for _ in range(max_iterations):
+        S, _ = sensitivity_matrix(predict, theta, names, relative_step=relative_step,
+                                  scheme=scheme, G0=G)
+        A = _stack(S * w_flat[:, None])
+        b = _stack((w * (data - G)).ravel())
+        U, s, Vt = np.linalg.svd(A, full_matrices=False)
+        if s[-1] <= rcond * s[0]:
+            raise IdentifiabilityError(_unidentifiable_message(names, s, Vt, rcond))
+        Ub = U.T @ b
+        # Steps are in log-parameters (relative changes that keep values positive).
+        # Try the Gauss-Newton step; if the cost rises, damp it (Levenberg-Marquardt in
+        # the SVD basis) until it falls. Lightly damped FRFs make the cost strongly
+        # non-quadratic once peaks have moved by more than their bandwidth.
+        for _attempt in range(30):
+            dx = Vt.T @ (Ub * s / (s**2 + mu * s[0] ** 2))
+            trial = dict(theta)
+            for n, d in zip(names, dx, strict=True):
+                trial[n] = theta[n] * np.exp(d)
+            G_trial = np.asarray(predict(trial))
+            c_trial = cost(G_trial)
+            if c_trial <= costs[-1]:
+                mu = mu / 10 if mu > 1e-12 else 0.0
+                break
+            mu = max(10 * mu, 1e-6)
+        else:
+            break  # no decrease possible: at a minimum to working precision
+        theta, G = trial, G_trial
+        history.append(np.array([theta[n] for n in names]))
+        costs.append(c_trial)
+        if np.max(np.abs(dx)) < tolerance:
+            converged = True
+            break
+    if not converged:
+        warnings.warn(
+            f"finite-difference update did not converge in {max_iterations} iterations "
+            f"(last relative change {np.max(np.abs(dx)):.1e} > tolerance {tolerance:.0e}); "
+            f"raise 'max_iterations' or check the parameterisation", stacklevel=2)
+    cov = np.linalg.pinv(np.diag(s) @ Vt) @ np.linalg.pinv(np.diag(s) @ Vt).T
+    sd = np.sqrt(np.diag(cov))
+    corr = cov / np.outer(sd, sd)
+    return UpdateResult(
+        names=names, initial=base, values=history[-1], history=np.array(history),
+        cost_history=np.array(costs), singular_values=s,
+        condition_number=float(s[0] / s[-1]), correlation=corr, converged=converged)
