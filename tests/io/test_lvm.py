@@ -118,9 +118,7 @@ def test_shipped_accelerance_peaks_match_readme_below_5khz(impact: ImpactRecord)
     np.testing.assert_allclose(top3, [695.6, 1897.9, 3671.0], atol=1.0)
 
 
-def test_ladisk_beam_impact_is_si_and_consistent(
-    impact: ImpactRecord, shipped: TimeRecord
-) -> None:
+def test_ladisk_beam_impact_is_si_and_consistent(impact: ImpactRecord, shipped: TimeRecord) -> None:
     assert G_STANDARD_M_S2 == 9.80665
     assert impact.inputs.shape == (1, 50030) and impact.outputs.shape == (1, 50030)
     np.testing.assert_array_equal(impact.force_n, shipped.data[1])
@@ -205,9 +203,7 @@ def lvm_text(
     dx = float(delta_x)
     if x_columns == "Multi":
         head.append(line("X_Value", names[0], "X_Value", names[1], "Comment"))
-        body = [
-            line(num(k * dx), num(r[0]), num(k * dx), num(r[1])) for k, r in enumerate(rows)
-        ]
+        body = [line(num(k * dx), num(r[0]), num(k * dx), num(r[1])) for k, r in enumerate(rows)]
     else:
         head.append(line("X_Value", *names, "Comment"))
         xcol = (lambda k: "") if x_columns == "No" else (lambda k: num(k * dx))
@@ -397,3 +393,61 @@ def test_second_segment_rejected(tmp_path: Path) -> None:
 def test_missing_file() -> None:
     with pytest.raises(FileNotFoundError):
         read_lvm("/nonexistent/nothing.lvm")
+
+
+@pytest.mark.parametrize(
+    ("lineno", "new_line", "match"),
+    [
+        (4, "Separator,Semicolon", r"line 4: field 'Separator': expected 'Tab' or 'Comma'"),
+        (2, "Writer_Versio,2", r"file header has no 'Writer_Version' line"),
+        (5, "Decimal_Separator,;", r"line 5: field 'Decimal_Separator': expected '.' or ','"),
+        (7, "X_Columns,Two", r"line 7: field 'X_Columns': expected 'No', 'One' or 'Multi'"),
+        (14, "Channels,two,,", r"line 14: field 'Channels': expected a positive integer"),
+        (14, "Chanels,2,,", r"channel header has no 'Channels' line"),
+        (15, "Samples,5,,", r"line 15: field 'Samples': expected 2 value\(s\)"),
+        (15, "Samples,5.0,5.0,", r"line 15: field 'Samples': expected integers"),
+        (21, "Delta_Y,1.0E-3,1.0E-3,", r"channel header has no 'Delta_X' line"),
+        (21, "Delta_X,1.0E-3,2.0E-3,", r"line 21: field 'Delta_X': expected one positive"),
+        (21, "Delta_X,-1.0E-3,-1.0E-3,", r"line 21: field 'Delta_X': expected one positive"),
+        (20, "X0,0,1,", r"line 20: field 'X0': expected the same finite start"),
+        (17, "Time,14h15,14h15,", r"line 17: fields 'Date'/'Time': expected 'YYYY/MM/DD'"),
+        (16, "Date,2024/02/30,2024/02/30,", r"line 17: fields 'Date'/'Time': not a valid"),
+        (23, "X_Value,acc,Comment", r"line 23: column titles: expected 3 columns"),
+        (26, "", r"line 26: empty line inside the data block"),
+    ],
+)
+def test_malformed_header_and_layout(
+    tmp_path: Path, lineno: int, new_line: str, match: str
+) -> None:
+    lines = lvm_text().split("\n")
+    lines[lineno - 1] = new_line
+    path = write(tmp_path, "\n".join(lines))
+    with pytest.raises(DataFormatError, match=_match(path, match)):
+        read_lvm(path)
+
+
+def test_file_ending_after_the_file_header(tmp_path: Path) -> None:
+    path = write(tmp_path, "\n".join(lvm_text().split("\n")[:13]) + "\n")
+    with pytest.raises(DataFormatError, match=_match(path, r"no channel header after the")):
+        read_lvm(path)
+
+
+def test_ladisk_beam_impact_checks_sha256(monkeypatch: pytest.MonkeyPatch) -> None:
+    import truthbench.io.lvm as lvm
+
+    monkeypatch.setattr(lvm, "LADISK_BEAM_IMPACT_SHA256", "0" * 64)
+    with pytest.raises(DataFormatError, match=r"acceleration\.lvm: sha256 mismatch: expected 0+"):
+        lvm.ladisk_beam_impact()
+
+
+def test_time_record_validates_its_fields() -> None:
+    with pytest.raises(ValueError, match=r"shape \(n_channels, n_samples\); got 1 dimension"):
+        TimeRecord(data=np.ones(3), dt_s=1.0, channel_names=("a",), units=("N",))
+    with pytest.raises(ValueError, match=r"channel_names must have one entry per channel"):
+        TimeRecord(data=np.ones((2, 3)), dt_s=1.0, channel_names=("a",), units=("N", "N"))
+    with pytest.raises(ValueError, match=r"dt_s must be finite and > 0; got 0.0"):
+        TimeRecord(data=np.ones((1, 3)), dt_s=0.0, channel_names=("a",), units=("N",))
+    source = np.ones((1, 3))
+    rec = TimeRecord(data=source, dt_s=0.5, channel_names=["a"], units=["N"])
+    source[0, 0] = 7.0  # the record holds a copy
+    assert rec.data[0, 0] == 1.0 and rec.channel_names == ("a",)
