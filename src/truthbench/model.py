@@ -226,7 +226,8 @@ def solve_modes(M, K, n_modes: int | None = None, *, rigid_tol: float = 1e-12) -
 def modal_damping_matrix(model: StructuralModel, modes: Modes) -> np.ndarray:
     """``Xi = Phi^T C Phi + diag(2 zeta_i omega_i)``, shape (m, m), 1/s."""
     Phi = modes.shapes
-    zeta = np.broadcast_to(np.asarray(model.modal_damping_ratio, dtype=float), modes.omega_rad_s.shape)
+    zeta = np.broadcast_to(np.asarray(model.modal_damping_ratio, dtype=float),
+                           modes.omega_rad_s.shape)
     if np.any(zeta < 0):
         raise ModelError("modal_damping_ratio must be >= 0")
     Xi = Phi.T @ (model.C @ Phi) if model.C.nnz else np.zeros((modes.n_modes,) * 2)
@@ -315,3 +316,48 @@ def _complex_mode_frf(omega, Xi, Bm, Cm, s):
         + (s**2)[:, None, None] * np.eye(m)[None]
     X = np.linalg.solve(Z, np.broadcast_to(Bm, (len(s),) + Bm.shape))
     return np.einsum("om,fmi->foi", Cm, X)
+
+
+def modal_table(model: StructuralModel, modes: Modes) -> list[dict]:
+    """Frequency, damping ratio and a short shape description of every mode.
+
+    Damping ratios come from the complex poles of the modal first-order form (so they
+    include non-proportional physical damping), paired to the real modes in order of
+    frequency. The description names the dominant motion by kinetic-energy share
+    (axial, bending y, bending z, torsion) and counts the sign changes of the dominant
+    translation along the structure (nodes).
+    """
+    Xi = modal_damping_matrix(model, modes)
+    m = modes.n_modes
+    omega = modes.omega_rad_s
+    if np.allclose(Xi, np.diag(np.diag(Xi))):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zeta = np.where(omega > 0, np.diag(Xi) / (2 * np.maximum(omega, 1e-300)), np.nan)
+    else:
+        A = np.block([[np.zeros((m, m)), np.eye(m)], [-np.diag(omega**2), -Xi]])
+        lam = sla.eigvals(A)
+        lam = lam[lam.imag >= 0]
+        lam = lam[np.argsort(np.abs(lam))]
+        # pair: one pole (imag >= 0) per real mode, by frequency order; overdamped or
+        # rigid modes give real poles
+        lam = lam[:m] if len(lam) >= m else np.pad(lam, (0, m - len(lam)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zeta = np.where(np.abs(lam) > 0, -lam.real / np.abs(lam), np.nan)
+        zeta = np.where(modes.rigid, np.nan, zeta)
+    dirs = np.array([lab.rsplit(".", 1)[-1] if "." in lab else "" for lab in model.dof_labels])
+    Mdiag = model.M.diagonal()
+    names = {"x": "axial", "y": "bending y", "z": "bending z", "rx": "torsion"}
+    rows = []
+    for i in range(m):
+        phi = modes.shapes[:, i]
+        energy = {d: float(np.sum(Mdiag[dirs == d] * phi[dirs == d] ** 2)) for d in names}
+        dom = max(energy, key=energy.get)
+        comp = phi[dirs == dom]
+        big = np.abs(comp) > 1e-3 * np.abs(comp).max() if comp.size else comp
+        nodes = int(np.sum(np.diff(np.sign(comp[big])) != 0)) if comp.size else 0
+        kind = names[dom]
+        desc = f"rigid-body ({kind})" if modes.rigid[i] else f"{kind}, {nodes} node" + (
+            "s" if nodes != 1 else "")
+        rows.append({"mode": i + 1, "freq_hz": float(modes.freq_hz[i]),
+                     "damping_ratio": float(zeta[i]), "shape": desc})
+    return rows

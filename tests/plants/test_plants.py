@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-import scipy.linalg as sla
 
 from truthbench.errors import ModelError
 from truthbench.fe.beam import TubeSection

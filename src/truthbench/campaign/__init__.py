@@ -1,1 +1,1 @@
-"""campaign room."""
+"""Campaigns: spec parsing and validation, the Monte Carlo runner, the results store."""

@@ -1,1 +1,1 @@
-"""report room."""
+"""Reports: tables (pandas) and figures (matplotlib) from results files only."""

@@ -1,0 +1,252 @@
+"""Campaign files: parsing and validation into a frozen :class:`CampaignSpec`.
+
+A campaign is a TOML file (reference: README, "Campaign file reference"). It is checked
+once, here: the TOML syntax, then every key and type (pydantic models with
+``extra="forbid"``), then the cross-references (stations the plant has, parameters it
+accepts, update parameters against the data). Every problem is reported as a
+:class:`~truthbench.errors.CampaignError` naming the file, the key path, what was
+expected and what was received.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from truthbench.errors import CampaignError, ModelError
+
+Direction = Literal["x", "y", "z", "rx", "ry", "rz"]
+PositiveFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class SensorSpec(_Strict):
+    """A sensor: station, direction and quantity."""
+
+    station: str
+    direction: Direction
+    quantity: Literal["displacement", "velocity", "acceleration", "strain"] = "acceleration"
+
+
+class ActuatorSpec(_Strict):
+    """A force or moment input at a station."""
+
+    station: str
+    direction: Direction
+
+
+class CampaignMeta(_Strict):
+    name: str
+    description: str = ""
+    seed: Annotated[int, Field(ge=0)] = 0
+    trials: Annotated[int, Field(ge=1)] = 1
+
+
+class PlantSpec(_Strict):
+    type: Literal["free_free_beam", "hub_beam"]
+    n_elements: Annotated[int, Field(ge=1, le=2000)] = 20
+    n_groups: Annotated[int, Field(ge=1)] = 1
+    stations: dict[str, Annotated[float, Field(ge=0, le=1)]] = Field(default_factory=dict)
+    parameters: dict[str, float] = Field(default_factory=dict)
+
+
+class TruthSpec(_Strict):
+    """The hardware's truth as offsets from the nominal model."""
+
+    relative: dict[str, Annotated[float, Field(gt=-1)]] = Field(default_factory=dict)
+    """Fractional offsets: ``E_pa = 0.03`` means truth E = 1.03 x nominal E."""
+
+
+class TestSpec(_Strict):
+    """One test of the test matrix."""
+
+    name: str
+    actuators: Annotated[list[ActuatorSpec], Field(min_length=1)]
+    sensors: list[SensorSpec] | None = None
+    level_rms: PositiveFloat = 1.0
+    band_hz: tuple[NonNegFloat, PositiveFloat]
+    fs_hz: PositiveFloat
+    record_s: PositiveFloat
+    averages: Annotated[int, Field(ge=1)] = 10
+    window: Literal["rectangular", "bartlett", "hann", "hamming"] = "bartlett"
+    noise_fraction: NonNegFloat = 0.0
+    oversample: Annotated[int, Field(ge=1, le=64)] = 8
+
+    @field_validator("band_hz")
+    @classmethod
+    def _band_ordered(cls, v):
+        if not v[0] < v[1]:
+            raise ValueError(f"band_hz must be [low, high] with low < high; got {list(v)}")
+        return v
+
+
+class UpdateSpec(_Strict):
+    method: Literal["finite_difference", "none"] = "finite_difference"
+    parameters: list[str] = Field(default_factory=list)
+    band_hz: tuple[NonNegFloat, PositiveFloat] | None = None
+    weighting: Literal["none", "coherence", "inverse_magnitude"] = "none"
+    max_iterations: Annotated[int, Field(ge=1)] = 30
+    tolerance: PositiveFloat = 1e-7
+    relative_step: Annotated[float, Field(gt=0, lt=0.1)] = 1e-4
+    scheme: Literal["central", "forward"] = "central"
+
+
+class CampaignSpec(_Strict):
+    """A validated campaign (frozen)."""
+
+    campaign: CampaignMeta
+    plant: PlantSpec
+    sensors: Annotated[list[SensorSpec], Field(min_length=1)]
+    truth: TruthSpec = Field(default_factory=TruthSpec)
+    tests: Annotated[list[TestSpec], Field(min_length=1)]
+    update: UpdateSpec = Field(default_factory=UpdateSpec)
+    source: str = "<memory>"
+
+    def make_plant(self):
+        """The plant builder of this campaign."""
+        from truthbench.plants import make_plant
+
+        return make_plant(self.plant.type, n_elements=self.plant.n_elements,
+                          n_groups=self.plant.n_groups, stations=dict(self.plant.stations))
+
+    def nominal_parameters(self) -> dict[str, float]:
+        return self.make_plant().resolve(self.plant.parameters)
+
+    def truth_parameters(self) -> dict[str, float]:
+        """Nominal values times ``1 + offset`` for every truth offset."""
+        nominal = self.nominal_parameters()
+        out = dict(nominal)
+        for key, frac in self.truth.relative.items():
+            base = key.split("@")[0]
+            out[key] = nominal.get(key, nominal[base]) * (1.0 + frac)
+        return out
+
+    def test_sensors(self, i: int) -> list[SensorSpec]:
+        return self.tests[i].sensors if self.tests[i].sensors is not None else self.sensors
+
+    def to_toml_dict(self) -> dict[str, Any]:
+        return self.model_dump(mode="json", exclude={"source"}, exclude_none=True)
+
+
+def _loc(loc: tuple) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+def _format_validation_error(source: str, err: ValidationError) -> str:
+    lines = [f"{source}: {err.error_count()} problem(s) in the campaign file:"]
+    for e in err.errors():
+        loc = _loc(tuple(p for p in e["loc"] if not (isinstance(p, str) and "[" in p)))
+        received = e.get("input")
+        if e["type"] == "extra_forbidden":
+            lines.append(f"  - key '{loc}' is not a campaign key (unknown key); remove it or "
+                         f"check its spelling")
+        elif e["type"] == "missing":
+            lines.append(f"  - key '{loc}' is required but missing")
+        else:
+            lines.append(f"  - key '{loc}': expected {e['msg'].lower()}; got {received!r}")
+    return "\n".join(lines)
+
+
+def parse_campaign(data: dict, source: str = "<memory>") -> CampaignSpec:
+    """Validate a campaign given as a dict (the parsed TOML).
+
+    Raises
+    ------
+    CampaignError
+        Naming ``source``, the key path, what was expected and what was received.
+    """
+    try:
+        spec = CampaignSpec.model_validate({**data, "source": source})
+    except ValidationError as err:
+        raise CampaignError(_format_validation_error(source, err)) from None
+    _check_references(spec)
+    return spec
+
+
+def load_campaign(path: str | Path) -> CampaignSpec:
+    """Read and validate a campaign TOML file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise CampaignError(f"{path}: campaign file not found") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise CampaignError(f"{path}: not valid TOML: {exc}") from None
+    return parse_campaign(data, str(path))
+
+
+def _check_references(spec: CampaignSpec) -> None:
+    src = spec.source
+    try:
+        plant = spec.make_plant()
+    except ModelError as exc:
+        raise CampaignError(f"{src}: key 'plant': {exc}") from None
+    known = set(plant.parameter_names())
+
+    def check_param(key: str, where: str):
+        if key not in known:
+            raise CampaignError(f"{src}: key '{where}': {spec.plant.type} has no parameter "
+                                f"{key!r}; expected one of {', '.join(sorted(known))}")
+
+    for key in spec.plant.parameters:
+        check_param(key, f"plant.parameters.{key}")
+    try:
+        plant.resolve(spec.plant.parameters)
+    except ModelError as exc:
+        raise CampaignError(f"{src}: key 'plant.parameters': {exc}") from None
+    for key in spec.truth.relative:
+        check_param(key, f"truth.relative.{key}")
+    for key in spec.update.parameters:
+        check_param(key, "update.parameters")
+    if spec.update.method != "none" and not spec.update.parameters:
+        raise CampaignError(f"{src}: key 'update.parameters': expected at least one parameter "
+                            f"for method {spec.update.method!r}; got an empty list")
+
+    def check_station(station: str, where: str):
+        try:
+            plant.station_node(station)
+        except ModelError as exc:
+            raise CampaignError(f"{src}: key '{where}': {exc}") from None
+
+    for i, s in enumerate(spec.sensors):
+        check_station(s.station, f"sensors[{i}].station")
+    names = [t.name for t in spec.tests]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise CampaignError(f"{src}: key 'tests': test names must be unique; "
+                            f"got {sorted(dup)} more than once")
+    for j, t in enumerate(spec.tests):
+        for i, a in enumerate(t.actuators):
+            check_station(a.station, f"tests[{j}].actuators[{i}].station")
+        for i, s in enumerate(t.sensors or []):
+            check_station(s.station, f"tests[{j}].sensors[{i}].station")
+        nyquist = t.fs_hz / 2
+        if t.band_hz[1] > nyquist:
+            raise CampaignError(f"{src}: key 'tests[{j}].band_hz': expected an upper edge at or "
+                                f"below the Nyquist frequency {nyquist} Hz; got {t.band_hz[1]}")
+        n = int(round(t.record_s * t.fs_hz))
+        if n // t.averages < 16:
+            raise CampaignError(f"{src}: key 'tests[{j}].averages': {t.averages} averages of a "
+                                f"{n}-sample record leave fewer than 16 samples per segment")
+    # m r > p (METHOD 5.1): SISO pairs over all tests against updated parameters
+    if spec.update.method == "finite_difference":
+        pairs = sum(len(t.actuators) * len(spec.test_sensors(j)) for j, t in
+                    enumerate(spec.tests))
+        p = len(spec.update.parameters)
+        if pairs <= p:
+            raise CampaignError(
+                f"{src}: key 'update.parameters': the finite-difference method needs more "
+                f"SISO transfer functions than parameters (m r > p); the tests give "
+                f"m r = {pairs} for p = {p}. Add sensors or tests, or update fewer parameters.")

@@ -1,0 +1,132 @@
+"""The results store: one HDF5 file per campaign run.
+
+Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
+
+    /                      attrs: format, truthbench_version, seed, campaign, spec_json,
+                                  created_utc, n_trials
+    /nominal               attrs: parameter -> value
+    /trials/0000           attrs: status ("ok" | "failed"), error
+        truth              attrs: parameter -> value
+        tests/<name>       datasets freq_hz, H, coherence, u, y;
+                           attrs fs_hz, input_labels, output_labels
+        tests/<name>/parameters   attrs: the exact truth parameters of this test
+        update             datasets names, initial, values, history, cost_history,
+                           singular_values, correlation; attrs converged, method,
+                           condition_number
+        model/<name>       datasets H_initial, H_updated, update_mask
+
+A failed trial is written with what it had computed, so nothing is lost.
+"""
+
+from __future__ import annotations
+
+import json
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from truthbench.errors import DataFormatError
+
+FORMAT = "truthbench-results-1"
+
+
+def _attrs(group, mapping):
+    for k, v in mapping.items():
+        group.attrs[k] = v
+
+
+def write_results(result, path: str | Path) -> Path:
+    """Write a :class:`~truthbench.campaign.runner.CampaignResult` to HDF5."""
+    import h5py
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".part")
+    with h5py.File(tmp, "w") as f:
+        _attrs(f, {
+            "format": FORMAT, "truthbench_version": result.version, "seed": result.seed,
+            "campaign": result.spec.campaign.name,
+            "spec_json": json.dumps(result.spec.to_toml_dict()),
+            "source": result.spec.source,
+            "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+            "n_trials": len(result.trials)})
+        _attrs(f.create_group("nominal"), result.nominal)
+        trials = f.create_group("trials")
+        for tr in result.trials:
+            g = trials.create_group(f"{tr.trial:04d}")
+            g.attrs["status"] = "failed" if tr.error else "ok"
+            g.attrs["error"] = tr.error or ""
+            _attrs(g.create_group("truth"), tr.truth)
+            tests = g.create_group("tests")
+            for rec in tr.tests:
+                t = tests.create_group(rec.name)
+                for name in ("freq_hz", "H", "coherence"):
+                    t.create_dataset(name, data=getattr(rec, name))
+                for name in ("u", "y"):
+                    t.create_dataset(name, data=getattr(rec, name), compression="gzip",
+                                     compression_opts=4, shuffle=True)
+                _attrs(t, {"fs_hz": rec.fs_hz, "input_labels": list(rec.input_labels),
+                           "output_labels": list(rec.output_labels)})
+                _attrs(t.create_group("parameters"), rec.parameters)
+            if tr.update is not None:
+                u = g.create_group("update")
+                u.create_dataset("names", data=np.array(tr.update.names, dtype="S"))
+                for name in ("initial", "values", "history", "cost_history",
+                             "singular_values", "correlation"):
+                    u.create_dataset(name, data=getattr(tr.update, name))
+                _attrs(u, {"converged": tr.update.converged, "method": tr.update.method,
+                           "condition_number": tr.update.condition_number})
+                m = g.create_group("model")
+                for rec, hi, hu, mask in zip(tr.tests, tr.H_initial, tr.H_updated,
+                                             tr.update_mask, strict=True):
+                    mg = m.create_group(rec.name)
+                    mg.create_dataset("H_initial", data=hi)
+                    mg.create_dataset("H_updated", data=hu)
+                    mg.create_dataset("update_mask", data=mask)
+    tmp.replace(path)
+    return path
+
+
+def _read_group(g) -> dict:
+    out = {"attrs": {k: _plain(v) for k, v in g.attrs.items()}}
+    for k, v in g.items():
+        out[k] = _read_group(v) if hasattr(v, "keys") else v[()]
+    return out
+
+
+def _plain(v):
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.ndarray) and v.dtype.kind in "OS":
+        return [x.decode() if isinstance(x, bytes) else x for x in v.tolist()]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def read_results(path: str | Path) -> dict:
+    """Read a results file into nested dicts of arrays and attributes.
+
+    Raises
+    ------
+    DataFormatError
+        If the file is missing, not HDF5, or not a truthbench results file.
+    """
+    import h5py
+
+    path = Path(path)
+    if not path.exists():
+        raise DataFormatError(f"{path}: results file not found")
+    try:
+        with h5py.File(path, "r") as f:
+            fmt = f.attrs.get("format")
+            if _plain(fmt) != FORMAT:
+                raise DataFormatError(f"{path}: not a truthbench results file (attribute "
+                                      f"'format' is {_plain(fmt)!r}; expected {FORMAT!r})")
+            data = _read_group(f)
+    except OSError as exc:
+        raise DataFormatError(f"{path}: cannot be read as HDF5 ({exc})") from None
+    data["attrs"]["spec"] = json.loads(data["attrs"]["spec_json"])
+    data["path"] = str(path)
+    return data

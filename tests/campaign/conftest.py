@@ -1,0 +1,27 @@
+"""Shared campaign fixtures: the shipped quickstart and a small fast variant."""
+
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+QUICKSTART = ROOT / "campaigns" / "quickstart.toml"
+
+
+@pytest.fixture
+def quickstart_dict():
+    return tomllib.loads(QUICKSTART.read_text())
+
+
+@pytest.fixture
+def small_dict(quickstart_dict):
+    """The quickstart with short records: for plumbing tests, not accuracy."""
+    d = quickstart_dict
+    d["plant"]["n_elements"] = 8
+    d["sensors"] = [s for s in d["sensors"] if s["station"] != "quarter"]
+    for t in d["tests"]:
+        t.update(record_s=4.0, averages=4, oversample=2)
+        if t["actuators"][0]["station"] == "quarter":
+            t["actuators"] = [{"station": "end_b", "direction": "z"}]
+    return d

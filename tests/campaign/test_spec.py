@@ -1,0 +1,78 @@
+"""Campaign validation: every bad input gives an error naming file, key, expected and got."""
+
+import pytest
+
+from truthbench.campaign.spec import load_campaign, parse_campaign
+from truthbench.errors import CampaignError
+
+from .conftest import QUICKSTART
+
+
+def test_quickstart_loads_and_resolves_truth():
+    spec = load_campaign(QUICKSTART)
+    nominal, truth = spec.nominal_parameters(), spec.truth_parameters()
+    assert truth["E_pa"] == pytest.approx(nominal["E_pa"] * 1.04)
+    assert truth["rho_kg_m3"] == pytest.approx(nominal["rho_kg_m3"] * 0.97)
+    assert spec.test_sensors(0) == spec.sensors
+
+
+def test_unknown_key(quickstart_dict):
+    quickstart_dict["tests"][0]["level_rsm"] = 1.0
+    with pytest.raises(CampaignError,
+                       match=r"(?s)cfg.toml.*'tests\[0\].level_rsm'.*unknown key"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_wrong_type(quickstart_dict):
+    quickstart_dict["tests"][1]["averages"] = "many"
+    with pytest.raises(CampaignError, match=r"(?s)'tests\[1\].averages': expected .*integer.*"
+                                            r"got 'many'"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_negative_length(quickstart_dict):
+    quickstart_dict["plant"]["parameters"]["L_m"] = -1.8
+    with pytest.raises(CampaignError, match=r"(?s)'plant.parameters'.*'L_m' must be a positive"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+    quickstart_dict["plant"]["parameters"]["L_m"] = 1.8
+    quickstart_dict["tests"][0]["record_s"] = -3
+    with pytest.raises(CampaignError,
+                       match=r"(?s)'tests\[0\].record_s': expected .*greater than 0"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_sensor_at_missing_station(quickstart_dict):
+    quickstart_dict["sensors"][1]["station"] = "nose"
+    with pytest.raises(CampaignError, match=r"(?s)'sensors\[1\].station'.*no station 'nose'"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_unknown_parameter_names(quickstart_dict):
+    quickstart_dict["truth"]["relative"]["youngs"] = 0.1
+    with pytest.raises(CampaignError, match=r"(?s)'truth.relative.youngs'.*no parameter 'youngs'"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_update_with_m_r_not_above_p(quickstart_dict):
+    quickstart_dict["sensors"] = quickstart_dict["sensors"][:1]
+    quickstart_dict["tests"] = quickstart_dict["tests"][:1]
+    with pytest.raises(CampaignError, match=r"(?s)m r > p.*m r = 1 for p = 2"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_band_above_nyquist_and_missing_key(quickstart_dict):
+    quickstart_dict["tests"][0]["band_hz"] = [2.0, 900.0]
+    with pytest.raises(CampaignError, match=r"(?s)'tests\[0\].band_hz'.*Nyquist"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+    del quickstart_dict["tests"][0]["fs_hz"]
+    with pytest.raises(CampaignError, match=r"(?s)'tests\[0\].fs_hz' is required"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_bad_toml_and_missing_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[campaign\nname = 1")
+    with pytest.raises(CampaignError, match=r"bad.toml: not valid TOML"):
+        load_campaign(bad)
+    with pytest.raises(CampaignError, match="not found"):
+        load_campaign(tmp_path / "none.toml")

@@ -1,0 +1,55 @@
+"""HDF5 results: round trip of what the runner produced; corrupt files."""
+
+import numpy as np
+import pytest
+
+from truthbench import __version__
+from truthbench.campaign.runner import run_campaign
+from truthbench.campaign.spec import parse_campaign
+from truthbench.campaign.store import read_results, write_results
+from truthbench.errors import DataFormatError
+
+
+def test_round_trip(small_dict, tmp_path):
+    spec = parse_campaign(small_dict)
+    result = run_campaign(spec)
+    path = write_results(result, tmp_path / "r" / "results.h5")
+    data = read_results(path)
+    a = data["attrs"]
+    assert a["truthbench_version"] == __version__ and a["seed"] == spec.campaign.seed
+    assert a["spec"]["campaign"]["name"] == "quickstart"
+    tr = result.trials[0]
+    g = data["trials"]["0000"]
+    assert g["attrs"]["status"] == "ok"
+    for rec in tr.tests:
+        t = g["tests"][rec.name]
+        np.testing.assert_array_equal(t["H"], rec.H)
+        np.testing.assert_array_equal(t["y"], rec.y)
+        assert t["parameters"]["attrs"]["E_pa"] == rec.parameters["E_pa"]
+        assert t["attrs"]["output_labels"] == list(rec.output_labels)
+    np.testing.assert_array_equal(g["update"]["history"], tr.update.history)
+    assert g["truth"]["attrs"]["rho_kg_m3"] == tr.truth["rho_kg_m3"]
+
+
+def test_failed_trial_is_written_with_its_data(small_dict, tmp_path):
+    small_dict["update"]["parameters"] = ["E_pa", "rho_kg_m3", "t_m"]
+    result = run_campaign(parse_campaign(small_dict))
+    data = read_results(write_results(result, tmp_path / "results.h5"))
+    g = data["trials"]["0000"]
+    assert g["attrs"]["status"] == "failed" and "IdentifiabilityError" in g["attrs"]["error"]
+    assert set(g["tests"]) - {"attrs"} == {t.name for t in result.trials[0].tests}
+
+
+def test_corrupt_or_foreign_files(tmp_path):
+    junk = tmp_path / "junk.h5"
+    junk.write_bytes(b"not hdf5 at all")
+    with pytest.raises(DataFormatError, match="junk.h5: cannot be read as HDF5"):
+        read_results(junk)
+    import h5py
+
+    with h5py.File(tmp_path / "other.h5", "w") as f:
+        f.attrs["format"] = "something-else"
+    with pytest.raises(DataFormatError, match="not a truthbench results file"):
+        read_results(tmp_path / "other.h5")
+    with pytest.raises(DataFormatError, match="not found"):
+        read_results(tmp_path / "missing.h5")

@@ -1,0 +1,65 @@
+"""The command line: run, report, modes; fast --help; errors as messages, not tracebacks."""
+
+import json
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+from truthbench.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _small_campaign(tmp_path):
+    text = (ROOT / "campaigns" / "quickstart.toml").read_text()
+    text = text.replace("record_s = 64.0", "record_s = 4.0").replace("averages = 8",
+                                                                     "averages = 4")
+    path = tmp_path / "small.toml"
+    path.write_text(text)
+    assert tomllib.loads(text)["tests"][0]["record_s"] == 4.0
+    return path
+
+
+def test_run_and_report(tmp_path, capsys):
+    camp = _small_campaign(tmp_path)
+    out = tmp_path / "out"
+    assert main(["run", str(camp), "--out", str(out), "--seed", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert "E_pa" in printed and "error after" in printed
+    report = (out / "report.md").read_text()
+    assert "| E_pa |" in report and "error before [%]" in report
+    assert (out / "frf.png").stat().st_size > 10_000
+    (out / "report.md").unlink()
+    assert main(["report", str(out / "results.h5")]) == 0
+    assert (out / "report.md").exists()
+
+
+def test_modes_json(capsys):
+    assert main(["modes", str(ROOT / "campaigns" / "quickstart.toml"), "--json",
+                 "--count", "10"]) == 0
+    tables = json.loads(capsys.readouterr().out)
+    nom, tru = tables["nominal"], tables["truth"]
+    assert len(nom) == 10
+    i = [row["shape"] for row in nom].index("bending y, 2 nodes")
+    # truth E +4 %, rho -3 %: lateral bending (no suspension springs in y) scales exactly
+    # by sqrt(1.04 / 0.97)
+    ratio = tru[i]["freq_hz"] / nom[i]["freq_hz"]
+    assert abs(ratio - (1.04 / 0.97) ** 0.5) < 1e-9
+
+
+def test_bad_campaign_is_a_message(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[campaign]\nname = "x"\n')
+    assert main(["modes", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "bad.toml" in err and "'plant' is required" in err
+
+
+def test_help_is_fast_and_lazy():
+    code = ("import sys, time; t = time.perf_counter(); "
+            "import truthbench.cli as c; c.build_parser(); "
+            "print(time.perf_counter() - t, 'control' in sys.modules, 'scipy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out[1:] == ["False", "False"]  # no heavy import behind --help
