@@ -290,13 +290,16 @@ def frf(model: StructuralModel, freq_hz, modes: Modes) -> np.ndarray:
     Xi = modal_damping_matrix(model, modes)
     Bm = modes.shapes.T @ model.B  # (m, n_in)
     Cm = model.C_out @ modes.shapes  # (n_out, m)
-    off = Xi - np.diag(np.diag(Xi))
-    if not np.any(np.abs(off) > 1e-12 * max(np.abs(Xi).max(), 1e-300)):
-        # classical modes: H = Cm diag(1 / (w_i^2 - w^2 + j w xi_ii)) Bm
-        den = modes.omega_rad_s[None, :] ** 2 + s[:, None] ** 2 + s[:, None] * np.diag(Xi)
-        H = np.einsum("om,fm,mi->foi", Cm, 1.0 / den, Bm, optimize=True)
-    else:
-        H = _complex_mode_frf(modes.omega_rad_s, Xi, Bm, Cm, s)
+    off = np.abs(Xi - np.diag(np.diag(Xi))) > 1e-12 * max(np.abs(Xi).max(), 1e-300)
+    coupled = off.any(axis=0) | off.any(axis=1)
+    # modes without damping coupling: classical sum 1 / (w_i^2 - w^2 + j w xi_ii)
+    free = ~coupled
+    den = modes.omega_rad_s[None, free] ** 2 + s[:, None] ** 2 + s[:, None] * np.diag(Xi)[free]
+    H = np.einsum("om,fm,mi->foi", Cm[:, free], 1.0 / den, Bm[free], optimize=True)
+    if coupled.any():
+        # modes coupled through non-proportional damping: complex modes of that subset
+        H = H + _complex_mode_frf(modes.omega_rad_s[coupled], Xi[np.ix_(coupled, coupled)],
+                                  Bm[coupled], Cm[:, coupled], s)
     p = _output_powers(model.quantities)
     return H * (s[:, None, None] ** p[None, :, None])
 
@@ -306,9 +309,13 @@ def _complex_mode_frf(omega, Xi, Bm, Cm, s):
     m = len(omega)
     A = np.block([[np.zeros((m, m)), np.eye(m)], [-np.diag(omega**2), -Xi]])
     lam, V = sla.eig(A)
-    if np.linalg.cond(V) < 1e10:
+    Bs = np.vstack([np.zeros_like(Bm), Bm])
+    lu = sla.lu_factor(V, check_finite=False)
+    # reciprocal condition estimate from the LU factors (LAPACK gecon), no SVD needed
+    rcond = sla.lapack.get_lapack_funcs("gecon", (lu[0],))(lu[0], np.linalg.norm(V, 1))[0]
+    if rcond > 1e-10:
         L = Cm @ V[:m]  # displacement rows of the state
-        R = np.linalg.solve(V, np.vstack([np.zeros_like(Bm), Bm]))
+        R = sla.lu_solve(lu, Bs, check_finite=False)
         return np.einsum("ok,fk,ki->foi", L, 1.0 / (s[:, None] - lam[None, :]), R,
                          optimize=True)
     # defective (e.g. undamped rigid modes coupled to a damper): solve per frequency

@@ -165,9 +165,12 @@ def model_frfs(spec: CampaignSpec, params: dict, records, masks) -> list[np.ndar
     """The model FRFs at each test's update lines, one array per test."""
     plant = spec.make_plant()
     out = []
+    modes = None  # every test shares the structure: one eigensolution per parameter set
     for j, (rec, mask) in enumerate(zip(records, masks, strict=True)):
         acts, sens = _io(spec, j)
-        out.append(plant.build(params, acts, sens).frf(rec.freq_hz[mask]))
+        model = plant.build(params, acts, sens)
+        modes = model.modes() if modes is None else modes
+        out.append(model.frf(rec.freq_hz[mask], modes=modes))
     return out
 
 
