@@ -1,1 +1,54 @@
-"""measure room."""
+"""measure: FRF estimation from time histories (windows, spectra, H1/H2/Hv, coherence).
+
+The room owns everything between sampled input/output records and an estimated
+frequency response matrix:
+
+* :mod:`~truthbench.measure.windows` -- data windows by name (periodic scipy windows and
+  the impact-test force and exponential windows);
+* :mod:`~truthbench.measure.spectra` -- the one spectral engine: segmenting, windowing,
+  a single batched FFT, averaged one-sided density matrices Gxx, Gyx, Gyy;
+* :mod:`~truthbench.measure.frf` -- the estimators H1, H2, Hv (a registry by name),
+  ordinary and multiple coherence, and the :class:`FRFEstimate` result.
+
+Conventions fixed for the project: ``H`` has shape ``(n_freq, n_out, n_in)`` with
+``Y = H X``, ``freq_hz`` shape ``(n_freq,)``; ``y = h * x`` gives ``H = DFT(h)``.
+Pure functions on numpy arrays; no I/O, no printing, inputs never changed.
+"""
+
+from truthbench.measure.frf import (
+    ESTIMATORS,
+    FRFEstimate,
+    FRFEstimator,
+    estimate_frf,
+    frf_from_spectra,
+    h1,
+    h2,
+    hv,
+)
+from truthbench.measure.spectra import (
+    SegmentPlan,
+    SpectralMatrices,
+    fft_friendly_length,
+    plan_segments,
+    spectral_matrices,
+)
+from truthbench.measure.windows import WINDOW_NAMES, get_window, window_from_spec
+
+__all__ = [
+    "ESTIMATORS",
+    "FRFEstimate",
+    "FRFEstimator",
+    "SegmentPlan",
+    "SpectralMatrices",
+    "WINDOW_NAMES",
+    "estimate_frf",
+    "fft_friendly_length",
+    "frf_from_spectra",
+    "get_window",
+    "h1",
+    "h2",
+    "hv",
+    "plan_segments",
+    "spectral_matrices",
+    "window_from_spec",
+]
