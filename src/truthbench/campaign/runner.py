@@ -91,8 +91,10 @@ class CampaignResult:
 
 
 def test_rng(seed: int, trial: int, test: int) -> np.random.Generator:
-    """The generator of one (trial, test): independent of run order and worker count."""
-    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(trial, test)))
+    """The excitation and noise generator of one (trial, test): independent of run order
+    and worker count (effects draw from their own streams, see
+    :mod:`truthbench.campaign.truth`)."""
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(trial, 0, test)))
 
 
 def _io(spec: CampaignSpec, j: int):
@@ -102,38 +104,67 @@ def _io(spec: CampaignSpec, j: int):
     return acts, sens
 
 
-def simulate_test(spec: CampaignSpec, j: int, params: dict, rng: np.random.Generator):
-    """Simulate test ``j`` on hardware ``params``.
+def _apply_filters(x: np.ndarray, fs_hz: float, filters, delay_s: float = 0.0):
+    """Filters (and a delay) applied to periodic records in the frequency domain: exact
+    for the periodic band-limited signals used here (the delay is a pure linear phase)."""
+    if not filters and delay_s == 0.0:
+        return x
+    n = x.shape[1]
+    s = 2j * np.pi * np.fft.rfftfreq(n, 1.0 / fs_hz)
+    X = np.fft.rfft(x, axis=1)
+    for flt in filters:
+        gain = np.polyval(flt.num, s) / np.polyval(flt.den, s)
+        rows = slice(None) if flt.index is None else slice(flt.index, flt.index + 1)
+        X[rows] = X[rows] * gain
+    if delay_s:
+        X = X * np.exp(-s * delay_s)
+    return np.fft.irfft(X, n, axis=1)
+
+
+def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
+    """Simulate test ``j`` on the hardware described by ``setup``
+    (:class:`~truthbench.effects.TestSetup`).
 
     Returns
     -------
     u : ndarray, shape (n_in, n_samples)
-        Recorded inputs (N or N m).
+        Recorded inputs (the commanded force or moment, N or N m).
     y : ndarray, shape (n_out, n_samples)
-        Recorded outputs with sensor noise.
+        Recorded outputs: through sensor dynamics, delay, bias, then sensor noise.
     """
     from truthbench.model import modal_system
     from truthbench.simulate import add_sensor_noise, band_limited_random, simulate_lti
 
     test = spec.tests[j]
     acts, sens = _io(spec, j)
-    model = spec.make_plant().build(params, acts, sens)
+    n_act = len(acts)
+    disturbers = [Actuator(st, d) for st, d, _ in setup.disturbances]
+    model = setup.plant.build(setup.parameters, acts + disturbers, sens, setup.additions)
     A, B, C, D = modal_system(model, model.modes())
     n = int(round(test.record_s * test.fs_hz))
     R = test.oversample
     fine_fs = test.fs_hz * R
     # periodic band-limited force at the fine rate; its decimation is exact
     u_fine = band_limited_random(n * R, fine_fs, test.level_rms, tuple(test.band_hz), rng,
-                                 n_inputs=len(acts))
+                                 n_inputs=n_act)
+    forces = _apply_filters(u_fine, fine_fs, setup.input_filters)  # actuator dynamics
+    if disturbers:
+        rms = [r for _, _, r in setup.disturbances]
+        forces = np.vstack([forces, band_limited_random(n * R, fine_fs, rms,
+                                                        tuple(test.band_hz), rng,
+                                                        n_inputs=len(disturbers))])
     f = np.fft.rfftfreq(n * R, 1.0 / fine_fs)
-    drive = np.fft.irfft(np.fft.rfft(u_fine, axis=1) / np.sinc(f / fine_fs) ** 2, n * R,
+    drive = np.fft.irfft(np.fft.rfft(forces, axis=1) / np.sinc(f / fine_fs) ** 2, n * R,
                          axis=1)
     warm = (n // test.averages) * R  # one segment of the periodic input as warm-up
     drive = np.concatenate([drive[:, -warm:], drive], axis=1)
     y_fine = simulate_lti(A, B, C, D, drive, 1.0 / fine_fs)[:, warm:]
+    y_fine = _apply_filters(y_fine, fine_fs, setup.output_filters, setup.delay_s)
     u, y = u_fine[:, ::R], y_fine[:, ::R]
-    if test.noise_fraction > 0:
-        y = add_sensor_noise(y, test.noise_fraction, rng)
+    y = setup.bias_gain * y + setup.bias_offset
+    noise = float(np.hypot(test.noise_fraction, setup.noise_fraction))
+    if noise > 0:
+        y = add_sensor_noise(y, noise, rng)
     return u, y
 
 
@@ -147,6 +178,20 @@ def measure_test(spec: CampaignSpec, j: int, u, y, params: dict) -> TestRecord:
     acts, sens = _io(spec, j)
     return TestRecord(test.name, est.freq_hz, est.H, est.coherence, u, y, test.fs_hz,
                       dict(params), tuple(a.label for a in acts), tuple(s.label for s in sens))
+
+
+def truth_record(setup) -> dict:
+    """The exact truth of one test as flat name -> value pairs: plant parameters, then
+    ``effect.<label>.<parameter>`` for every effect's realised values, plus the truth
+    mesh and element physics."""
+    out = {k: float(v) for k, v in setup.parameters.items()}
+    out["truth.n_elements"] = float(setup.plant.n_elements)
+    out["truth.timoshenko"] = float(setup.plant.timoshenko)
+    for label, values in setup.effects.items():
+        for k, v in values.items():
+            if isinstance(v, int | float) and not isinstance(v, bool):
+                out[f"effect.{label}.{k}"] = float(v)
+    return out
 
 
 def update_masks(spec: CampaignSpec, records) -> list[np.ndarray]:
@@ -209,13 +254,15 @@ def update_trial(spec: CampaignSpec, records):
 
 def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
     """Run one Monte Carlo trial; a failure is recorded, not raised."""
+    from truthbench.campaign.truth import test_setup
+
     truth = spec.truth_parameters()
     records: list[TestRecord] = []
     try:
         for j in range(len(spec.tests)):
-            rng = test_rng(seed, trial, j)
-            u, y = simulate_test(spec, j, truth, rng)
-            records.append(measure_test(spec, j, u, y, truth))
+            setup = test_setup(spec, trial, j, seed)
+            u, y = simulate_test(spec, j, setup, test_rng(seed, trial, j))
+            records.append(measure_test(spec, j, u, y, truth_record(setup)))
         if spec.update.method == "none":
             return TrialResult(trial, tuple(records), truth)
         result, masks = update_trial(spec, records)

@@ -58,10 +58,12 @@ class PlantSpec(_Strict):
 
 
 class TruthSpec(_Strict):
-    """The hardware's truth as offsets from the nominal model."""
+    """The hardware's truth: offsets from the nominal model plus effects (Table 10.1)."""
 
     relative: dict[str, Annotated[float, Field(gt=-1)]] = Field(default_factory=dict)
     """Fractional offsets: ``E_pa = 0.03`` means truth E = 1.03 x nominal E."""
+    effects: list[dict[str, Any]] = Field(default_factory=list)
+    """``[[truth.effects]]`` tables, validated by :func:`truthbench.effects.parse_effect`."""
 
 
 class TestSpec(_Strict):
@@ -78,6 +80,12 @@ class TestSpec(_Strict):
     window: Literal["rectangular", "bartlett", "hann", "hamming"] = "bartlett"
     noise_fraction: NonNegFloat = 0.0
     oversample: Annotated[int, Field(ge=1, le=64)] = 8
+    assembly: Annotated[int, Field(ge=0)] = 0
+    """Which assembly of the hardware (reassembly-scope effects are redrawn per value)."""
+    time_h: NonNegFloat = 0.0
+    """Time of the test since the campaign began, hours (drift-scope effects)."""
+    effects: list[dict[str, Any]] = Field(default_factory=list)
+    """Effects of this test only (added mass, other boundary conditions, ...)."""
 
     @field_validator("band_hz")
     @classmethod
@@ -127,6 +135,20 @@ class CampaignSpec(_Strict):
             base = key.split("@")[0]
             out[key] = nominal.get(key, nominal[base]) * (1.0 + frac)
         return out
+
+    def truth_effects(self) -> list:
+        """The campaign's effects, validated (:class:`~truthbench.effects.EffectSpec`)."""
+        from truthbench.effects import parse_effect
+
+        return [parse_effect(e, f"truth.effects[{k}]", self.source)
+                for k, e in enumerate(self.truth.effects)]
+
+    def test_effects(self, j: int) -> list:
+        """Test ``j``'s own effects, validated."""
+        from truthbench.effects import parse_effect
+
+        return [parse_effect(e, f"tests[{j}].effects[{k}]", self.source)
+                for k, e in enumerate(self.tests[j].effects)]
 
     def test_sensors(self, i: int) -> list[SensorSpec]:
         return self.tests[i].sensors if self.tests[i].sensors is not None else self.sensors
@@ -208,6 +230,15 @@ def _check_references(spec: CampaignSpec) -> None:
         raise CampaignError(f"{src}: key 'plant.parameters': {exc}") from None
     for key in spec.truth.relative:
         check_param(key, f"truth.relative.{key}")
+    effects = spec.truth_effects()
+    for j in range(len(spec.tests)):
+        effects += spec.test_effects(j)
+    for eff in effects:  # stations named in effect options must exist
+        if "station" in eff.options:
+            try:
+                plant.station_node(eff.options["station"])
+            except ModelError as exc:
+                raise CampaignError(f"{src}: effect {eff.name!r}: {exc}") from None
     for key in spec.update.parameters:
         check_param(key, "update.parameters")
     if spec.update.method != "none" and not spec.update.parameters:

@@ -225,6 +225,7 @@ def finish_structure(
     n_dofs: int,
     lumped: Lumped = Lumped(),
     clamped: Iterable[int] = (),
+    C: sp.spmatrix | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Add lumped elements and remove clamped DOFs.
 
@@ -236,6 +237,8 @@ def finish_structure(
         Point masses, rotary inertias, grounded springs and dashpots.
     clamped : iterable of int
         Global DOFs fixed to ground; they are removed (not penalised).
+    C : sparse matrix, shape (n_dofs, n_dofs), optional
+        A global damping matrix to start from (e.g. joint dashpots between DOFs).
 
     Returns
     -------
@@ -259,7 +262,7 @@ def finish_structure(
 
     M = (M + diag(lumped.masses)).tocsr()
     K = (K + diag(lumped.springs)).tocsr()
-    C = diag(lumped.dashpots).tocsr()
+    C = (diag(lumped.dashpots) + (C if C is not None else 0)).tocsr()
     free = np.setdiff1d(np.arange(n_dofs), clamped)
     return (M[free][:, free].tocsr(), C[free][:, free].tocsr(), K[free][:, free].tocsr(),
             free)

@@ -16,9 +16,16 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 
 from truthbench.errors import ModelError
-from truthbench.fe.assembly import DIRECTIONS, direction_index
+from truthbench.fe.assembly import (
+    DIRECTIONS,
+    BeamMesh,
+    assemble,
+    direction_index,
+    finish_structure,
+)
 
 SENSOR_QUANTITIES = ("displacement", "velocity", "acceleration", "strain")
 MATERIAL_KEYS = ("E_pa", "nu", "rho_kg_m3", "r_m", "t_m")
@@ -161,18 +168,35 @@ class Plant:
         return node
 
     # ---- the model ---------------------------------------------------------------
+    def mesh(self, params: Mapping[str, float]) -> BeamMesh:
+        """The beam along global x (z vertical), groups split into equal elements."""
+        x = self.node_x_m(params)
+        nodes = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+        n = self.n_elements
+        elements = np.column_stack([np.arange(n), np.arange(1, n + 1)])
+        return BeamMesh(nodes, elements, self.element_groups())
+
+    def global_dof(self, station: str, direction: str) -> int:
+        """Global (unreduced) DOF index of a direction at a station."""
+        return 6 * self.station_node(station) + direction_index(direction)
+
     def build(
         self,
         params: Mapping[str, float] | None = None,
         actuators: Sequence[Actuator] = (),
         sensors: Sequence[Sensor] = (),
+        additions: StructuralAdditions | None = None,
     ):
         """Build the :class:`~truthbench.model.StructuralModel` for these parameters,
-        with one input per actuator and one output per sensor."""
+        with one input per actuator and one output per sensor.
+
+        ``additions`` (from the truth simulator's effects) adds lumped masses, springs
+        and dashpots between or at DOFs, scales element stiffness, and sets element sag
+        angles."""
         from truthbench.model import StructuralModel
 
         p = self.resolve(params)
-        asm = self._assemble(p)
+        asm = self._assemble(p, additions or StructuralAdditions())
         B = np.column_stack([self._input_column(asm, a) for a in actuators]) if actuators \
             else np.zeros((asm.n_free, 0))
         rows = [self._sensor_row(asm, s) for s in sensors]
@@ -189,8 +213,26 @@ class Plant:
             metadata={"plant": self.kind, "parameters": p},
         )
 
-    def _assemble(self, params):  # pragma: no cover - abstract
+    def _boundary(self, params, mesh):  # pragma: no cover - abstract
+        """Lumped boundary elements and clamped global DOFs of the plant."""
         raise NotImplementedError
+
+    def _assemble(self, p, additions: StructuralAdditions) -> Assembled:
+        mesh = self.mesh(p)
+        props = self.group_properties(p)
+        K, M = assemble(mesh, props, timoshenko=self.timoshenko,
+                        sag_angles_rad=additions.sag_angles_rad)
+        n = mesh.n_dofs
+        for e, scale in additions.element_stiffness_scale:
+            if not 0 <= e < self.n_elements:
+                raise ModelError(f"element {e} does not exist (0..{self.n_elements - 1})")
+            one = BeamMesh(mesh.nodes_m, mesh.elements[[e]], (mesh.groups[e],))
+            ke, _ = assemble(one, props, timoshenko=self.timoshenko)
+            K = K + (scale - 1.0) * ke
+        dM, dC, dK = additions.matrices(n)
+        lumped, clamped = self._boundary(p, mesh)
+        Mf, Cf, Kf, free = finish_structure(K + dK, M + dM, n, lumped, clamped, C=dC)
+        return Assembled(Mf, Cf, Kf, free, mesh.dof_labels(), mesh.nodes_m, props)
 
     def _dof(self, asm, station: str, direction: str) -> int:
         node = self.station_node(station)
@@ -248,6 +290,50 @@ class Plant:
             if pos < len(asm.free) and asm.free[pos] == g:
                 row[pos] += -c * cf * sg
         return row
+
+
+@dataclass(frozen=True)
+class StructuralAdditions:
+    """Changes to a plant's structure, in global (unreduced) DOFs.
+
+    Attributes
+    ----------
+    links : tuple of (kind, dof_a, dof_b, value)
+        ``kind`` "mass", "spring" or "dashpot"; ``dof_b = -1`` grounds the element at
+        ``dof_a`` (a lumped mass is always grounded in this sense); otherwise a spring or
+        dashpot acts on the difference ``q_a - q_b`` (a joint across an element).
+    element_stiffness_scale : tuple of (element, factor)
+        Element stiffness multiplied by ``factor`` (a joint's stiffness loss: 1 - loss).
+    sag_angles_rad : ndarray, shape (n_elements,), optional
+        Element sag angles (METHOD section 3).
+    """
+
+    links: tuple[tuple[str, int, int, float], ...] = ()
+    element_stiffness_scale: tuple[tuple[int, float], ...] = ()
+    sag_angles_rad: np.ndarray | None = None
+
+    def matrices(self, n: int):
+        """Sparse (n, n) additions to M, C and K."""
+        out = {"mass": [], "dashpot": [], "spring": []}
+        for kind, a, b, v in self.links:
+            if kind not in out:
+                raise ModelError(f"unknown link kind {kind!r}; expected mass, spring or dashpot")
+            if not 0 <= a < n or not -1 <= b < n:
+                raise ModelError(f"link DOFs ({a}, {b}) outside 0..{n - 1}")
+            if b < 0:
+                out[kind].append(([a], [a], [v]))
+            else:
+                out[kind].append(([a, a, b, b], [a, b, a, b], [v, -v, -v, v]))
+
+        def build(entries):
+            if not entries:
+                return sp.csr_matrix((n, n))
+            r = np.concatenate([e[0] for e in entries])
+            c = np.concatenate([e[1] for e in entries])
+            v = np.concatenate([e[2] for e in entries]).astype(float)
+            return sp.csr_matrix((v, (r, c)), shape=(n, n))
+
+        return build(out["mass"]), build(out["dashpot"]), build(out["spring"])
 
 
 @dataclass(frozen=True)

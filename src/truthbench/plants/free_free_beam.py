@@ -12,10 +12,8 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import numpy as np
-
-from truthbench.fe.assembly import Lumped, assemble, finish_structure, straight_member
-from truthbench.plants.base import Assembled, ParameterInfo, Plant, register_plant
+from truthbench.fe.assembly import Lumped
+from truthbench.plants.base import ParameterInfo, Plant, register_plant
 
 #: Nominal tube of METHOD section 9: aluminium, 25.4 mm OD, 1.65 mm wall, 1.8 m long.
 ALUMINIUM_TUBE = {
@@ -52,13 +50,7 @@ class FreeFreeBeam(Plant):
     #: suspension points, as fractions of the length (nearest node is used)
     suspension_fractions: ClassVar[tuple[float, float]] = (0.224, 0.776)
 
-    def _assemble(self, p):
-        x = self.node_x_m(p)
-        mesh = straight_member([0, 0, 0], [x[-1], 0, 0], self.n_elements,
-                               self.element_groups())
-        mesh = type(mesh)(np.column_stack([x, 0 * x, 0 * x]), mesh.elements, mesh.groups)
-        props = self.group_properties(p)
-        K, M = assemble(mesh, props, timoshenko=self.timoshenko)
+    def _boundary(self, p, mesh):
         nodes = [int(round(f * self.n_elements)) for f in self.suspension_fractions]
         springs, dashpots = [], []
         for i, n in enumerate(nodes):
@@ -67,7 +59,4 @@ class FreeFreeBeam(Plant):
             springs.append((6 * n + 1, p["suspension_lateral_stiffness_n_m"]))
             if i == 0:
                 springs.append((6 * n + 0, p["suspension_axial_stiffness_n_m"]))
-        Mf, Cf, Kf, free = finish_structure(K, M, mesh.n_dofs,
-                                            Lumped(springs=tuple(springs),
-                                                   dashpots=tuple(dashpots)))
-        return Assembled(Mf, Cf, Kf, free, mesh.dof_labels(), mesh.nodes_m, props)
+        return Lumped(springs=tuple(springs), dashpots=tuple(dashpots)), ()

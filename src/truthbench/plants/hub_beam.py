@@ -17,10 +17,8 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import numpy as np
-
-from truthbench.fe.assembly import Lumped, assemble, finish_structure, straight_member
-from truthbench.plants.base import Assembled, ParameterInfo, Plant, register_plant
+from truthbench.fe.assembly import Lumped
+from truthbench.plants.base import ParameterInfo, Plant, register_plant
 from truthbench.plants.free_free_beam import ALUMINIUM_TUBE
 
 
@@ -41,14 +39,7 @@ class HubBeam(Plant):
         "tip": 1.0,
     }
 
-    def _assemble(self, p):
-        x = self.node_x_m(p)
-        mesh = straight_member([0, 0, 0], [x[-1], 0, 0], self.n_elements,
-                               self.element_groups())
-        mesh = type(mesh)(np.column_stack([x, 0 * x, 0 * x]), mesh.elements, mesh.groups)
-        props = self.group_properties(p)
-        K, M = assemble(mesh, props, timoshenko=self.timoshenko)
+    def _boundary(self, p, mesh):
         lumped = Lumped(masses=((5, p["hub_inertia_kg_m2"]),),
                         dashpots=((5, p["hub_damping_n_m_s_rad"]),))
-        Mf, Cf, Kf, free = finish_structure(K, M, mesh.n_dofs, lumped, clamped=range(5))
-        return Assembled(Mf, Cf, Kf, free, mesh.dof_labels(), mesh.nodes_m, props)
+        return lumped, tuple(range(5))

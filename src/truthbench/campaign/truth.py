@@ -1,0 +1,78 @@
+"""The truth of every test: hardware draws, reassembly, drift, per-test variation.
+
+For trial ``i`` and test ``j`` the truth is the nominal plant with the campaign's
+``truth.relative`` offsets, then every effect of ``truth.effects`` and of the test's own
+``effects`` contributes a draw made according to its scope:
+
+=============  ===========================================================================
+scope          random stream (``SeedSequence(seed, spawn_key=...)``)
+=============  ===========================================================================
+hardware       ``(i, 1, k)``: one draw per trial for effect ``k``
+reassembly     ``(i, 2, k, assembly)``: one draw per assembly index of the hardware
+test           ``(i, 3, k, j)``: one draw per test
+drift          ``(i, 4, k)``: a Wiener path over the sorted test times ``time_h``
+=============  ===========================================================================
+
+Test-only effects use ``k = 1000 + j * 100 + index`` so they never share a stream with
+the campaign's effects. The excitation and sensor noise of test ``j`` use ``(i, 0, j)``.
+So the draws do not depend on worker count or order, and changing one test's settings
+changes only that test's data (unless it changes its assembly index or time).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from truthbench.effects import SetupBuilder, TestSetup, draw
+
+
+def _rng(seed: int, *key: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
+
+
+def _drift(spec, eff, k: int, seed: int, trial: int, t_h: float) -> dict[str, float]:
+    """Value at time ``t_h`` of a Wiener path through the campaign's test times."""
+    times = sorted({0.0, *(t.time_h for t in spec.tests)})
+    rng = _rng(seed, trial, 4, k)
+    walk = {p.name: [0.0] for p in eff.effect.params}
+    for a, b in zip(times[:-1], times[1:], strict=True):
+        for name in walk:
+            walk[name].append(walk[name][-1] + np.sqrt(b - a) * rng.standard_normal())
+    idx = times.index(t_h)
+    out = {}
+    for p in eff.effect.params:
+        d = eff.distributions[p.name]
+        v = d.mean + d.std * walk[p.name][idx]
+        out[p.name] = float(max(v, p.minimum) if p.minimum is not None else v)
+    return out
+
+
+def _values(spec, eff, k: int, seed: int, trial: int, j: int) -> dict[str, float]:
+    test = spec.tests[j]
+    if eff.scope == "hardware":
+        return draw(eff, _rng(seed, trial, 1, k))
+    if eff.scope == "reassembly":
+        return draw(eff, _rng(seed, trial, 2, k, test.assembly))
+    if eff.scope == "test":
+        return draw(eff, _rng(seed, trial, 3, k, j))
+    return _drift(spec, eff, k, seed, trial, test.time_h)
+
+
+def test_setup(spec, trial: int, j: int, seed: int, extra_effects=()) -> TestSetup:
+    """The realised truth of test ``j`` in trial ``trial``.
+
+    ``extra_effects`` (:class:`~truthbench.effects.EffectSpec`) are added after the
+    campaign's own effects, with streams of their own: this is how data with an
+    undeclared effect are made (``truthbench simulate --inject``).
+    """
+    builder = SetupBuilder(plant=spec.make_plant(), parameters=spec.truth_parameters(),
+                           sensor_stations=tuple(s.station for s in spec.test_sensors(j)))
+    entries = [(k, e) for k, e in enumerate(spec.truth_effects())]
+    entries += [(1000 + 100 * j + n, e) for n, e in enumerate(spec.test_effects(j))]
+    entries += [(100000 + n, e) for n, e in enumerate(extra_effects)]
+    for k, eff in entries:
+        values = _values(spec, eff, k, seed, trial, j)
+        eff.effect.contribute(values, eff.options, builder)
+        label = eff.name if eff.name not in builder.effects else f"{eff.name}#{k}"
+        builder.effects[label] = {"scope": eff.scope, **eff.options, **values}
+    return builder.freeze()

@@ -1,0 +1,53 @@
+"""Testing effects (Table 10.1): sensor noise, sensor bias, process noise."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from truthbench.effects.base import Effect, EffectParam, register_effect
+
+
+@register_effect
+class SensorNoise(Effect):
+    name: ClassVar[str] = "sensor_noise"
+    target: ClassVar[str] = "measurement"
+    default_scope: ClassVar[str] = "test"
+    description: ClassVar[str] = ("white Gaussian noise on every output, its standard "
+                                  "deviation a fraction of the signal's")
+    params: ClassVar = (EffectParam("noise_fraction", 0.0, "noise std / signal std", 0.0),)
+    options: ClassVar = {}
+
+    def contribute(self, values, options, setup):
+        setup.noise_fraction = float(
+            (setup.noise_fraction**2 + values["noise_fraction"] ** 2) ** 0.5)
+
+
+@register_effect
+class SensorBias(Effect):
+    name: ClassVar[str] = "sensor_bias"
+    target: ClassVar[str] = "measurement"
+    default_scope: ClassVar[str] = "test"
+    description: ClassVar[str] = ("recorded output = (1 + gain_error) x output + offset, "
+                                  "on every output")
+    params: ClassVar = (EffectParam("offset", 0.0, "offset in the output's unit"),
+                        EffectParam("gain_error", 0.0, "relative gain error", -0.99))
+    options: ClassVar = {}
+
+    def contribute(self, values, options, setup):
+        setup.bias_offset += values["offset"]
+        setup.bias_gain *= 1.0 + values["gain_error"]
+
+
+@register_effect
+class ProcessNoise(Effect):
+    name: ClassVar[str] = "process_noise"
+    target: ClassVar[str] = "measurement"
+    default_scope: ClassVar[str] = "test"
+    description: ClassVar[str] = ("an unmeasured band-limited random disturbance force at a "
+                                  "station (same band as the test's excitation)")
+    params: ClassVar = (EffectParam("rms", 0.0, "RMS of the disturbance, N or N m", 0.0),)
+    options: ClassVar = {"station": None, "direction": "z"}
+
+    def contribute(self, values, options, setup):
+        setup.plant.station_node(options["station"])  # validates
+        setup.disturbances.append((options["station"], options["direction"], values["rms"]))

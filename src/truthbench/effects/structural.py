@@ -1,0 +1,248 @@
+"""Effects on the structure (M, C, K) and on the plant's parameters (Table 10.1, linear).
+
+Relative parameters (``*_rel``) multiply the plant parameter by ``1 + value``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import ClassVar
+
+import numpy as np
+
+from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.errors import ModelError
+from truthbench.fe.assembly import direction_index
+
+
+def _scale(setup, name: str, group: str, rel: float) -> None:
+    key = name if group == "all" else f"{name}@{group}"
+    if group != "all" and group not in setup.plant.group_names:
+        raise ModelError(f"element group {group!r} does not exist; groups are "
+                         f"{', '.join(setup.plant.group_names)}")
+    setup.scale_parameter(key, 1.0 + rel)
+
+
+@register_effect
+class Material(Effect):
+    name: ClassVar[str] = "material"
+    description: ClassVar[str] = "E, rho, nu of an element group (or all) differ from nominal"
+    params: ClassVar = (EffectParam("E_rel", 0.0, "relative error of E", -0.9),
+                        EffectParam("rho_rel", 0.0, "relative error of rho", -0.9),
+                        EffectParam("nu_rel", 0.0, "relative error of nu", -0.9))
+    options: ClassVar = {"group": "all"}
+
+    def contribute(self, values, options, setup):
+        for key, par in (("E_rel", "E_pa"), ("rho_rel", "rho_kg_m3"), ("nu_rel", "nu")):
+            _scale(setup, par, options["group"], values[key])
+
+
+@register_effect
+class Geometry(Effect):
+    name: ClassVar[str] = "geometry"
+    description: ClassVar[str] = "tube radius, wall thickness and length differ from nominal"
+    params: ClassVar = (EffectParam("r_rel", 0.0, "relative error of the mean radius", -0.9),
+                        EffectParam("t_rel", 0.0, "relative error of the wall thickness", -0.9),
+                        EffectParam("L_rel", 0.0, "relative error of the length", -0.9))
+    options: ClassVar = {"group": "all"}
+
+    def contribute(self, values, options, setup):
+        for key, par in (("r_rel", "r_m"), ("t_rel", "t_m")):
+            _scale(setup, par, options["group"], values[key])
+        if options["group"] == "all":
+            setup.scale_parameter("L_m", 1.0 + values["L_rel"])
+        else:
+            g = options["group"]
+            seg = setup.parameters.get(f"L_m@{g}",
+                                       setup.parameters["L_m"] / setup.plant.n_groups)
+            setup.parameters[f"L_m@{g}"] = seg * (1.0 + values["L_rel"])
+
+
+@register_effect
+class Parameter(Effect):
+    name: ClassVar[str] = "parameter"
+    description: ClassVar[str] = ("any plant parameter off by a relative amount (hub "
+                                  "inertia, hub damper, suspension, modal damping)")
+    params: ClassVar = (EffectParam("rel", 0.0, "relative error", -0.99),)
+    options: ClassVar = {"parameter": None}
+
+    def contribute(self, values, options, setup):
+        name = options["parameter"]
+        if name.split("@")[0] not in setup.parameters:
+            raise ModelError(f"effect 'parameter': the plant has no parameter {name!r}")
+        setup.scale_parameter(name, 1.0 + values["rel"])
+
+
+@register_effect
+class Discretization(Effect):
+    name: ClassVar[str] = "discretization"
+    description: ClassVar[str] = "the truth is meshed finer than the model (h-refinement)"
+    params: ClassVar = ()
+    options: ClassVar = {"refine": 4}
+
+    def contribute(self, values, options, setup):
+        k = int(options["refine"])
+        if k < 1:
+            raise ModelError(f"effect 'discretization': refine must be >= 1; got {k}")
+        setup.plant = replace(setup.plant, n_elements=setup.plant.n_elements * k)
+
+
+@register_effect
+class ElementPhysics(Effect):
+    name: ClassVar[str] = "element_physics"
+    description: ClassVar[str] = ("the truth has shear deformation and rotary inertia "
+                                  "(Timoshenko); the model is Euler-Bernoulli")
+    params: ClassVar = ()
+    options: ClassVar = {}
+
+    def contribute(self, values, options, setup):
+        setup.plant = replace(setup.plant, timoshenko=True)
+
+
+@register_effect
+class BoundaryConditions(Effect):
+    name: ClassVar[str] = "boundary"
+    default_scope: ClassVar[str] = "test"
+    description: ClassVar[str] = ("suspension stiffness and damping differ in every test "
+                                  "(free-free beam)")
+    params: ClassVar = (EffectParam("stiffness_rel", 0.0, "relative error of the suspension "
+                                    "stiffness", -0.99),
+                        EffectParam("damping_n_s_m", 0.0, "added suspension damping, N s/m",
+                                    0.0))
+    options: ClassVar = {}
+
+    def contribute(self, values, options, setup):
+        if "suspension_stiffness_n_m" not in setup.parameters:
+            raise ModelError(f"effect 'boundary' needs a suspended plant; "
+                             f"{setup.plant.kind} has no suspension")
+        setup.scale_parameter("suspension_stiffness_n_m", 1.0 + values["stiffness_rel"])
+        setup.parameters["suspension_damping_n_s_m"] += values["damping_n_s_m"]
+
+
+@register_effect
+class Joint(Effect):
+    name: ClassVar[str] = "joint"
+    description: ClassVar[str] = ("a joint at a station: the element beginning there loses "
+                                  "stiffness, and a concentrated rotational dashpot acts "
+                                  "across it (non-proportional damping)")
+    params: ClassVar = (EffectParam("stiffness_loss", 0.0, "fraction of the joint element's "
+                                    "stiffness lost", 0.0),
+                        EffectParam("damping_n_m_s_rad", 0.0, "dashpot on the relative "
+                                    "bending rotation across the joint element", 0.0))
+    options: ClassVar = {"station": None, "direction": "ry"}
+
+    def contribute(self, values, options, setup):
+        plant = setup.plant
+        node = plant.station_node(options["station"])
+        e = min(node, plant.n_elements - 1)
+        if not values["stiffness_loss"] < 1:
+            raise ModelError("effect 'joint': stiffness_loss must be < 1")
+        setup.element_scale.append((e, 1.0 - values["stiffness_loss"]))
+        d = direction_index(options["direction"])
+        if values["damping_n_m_s_rad"] > 0:
+            setup.links.append(("dashpot", 6 * e + d, 6 * (e + 1) + d,
+                                values["damping_n_m_s_rad"]))
+
+
+@register_effect
+class AddedMass(Effect):
+    name: ClassVar[str] = "added_mass"
+    description: ClassVar[str] = "a point mass at a station (structural change, Table 10.4)"
+    params: ClassVar = (EffectParam("mass_kg", 0.0, "added mass, kg", 0.0),)
+    options: ClassVar = {"station": None}
+
+    def contribute(self, values, options, setup):
+        node = setup.plant.station_node(options["station"])
+        for d in range(3):
+            setup.links.append(("mass", 6 * node + d, -1, values["mass_kg"]))
+
+
+@register_effect
+class SensorMass(Effect):
+    name: ClassVar[str] = "sensor_mass"
+    description: ClassVar[str] = "accelerometer mass loading at every sensor station"
+    params: ClassVar = (EffectParam("mass_kg", 0.0, "mass of one accelerometer, kg", 0.0),)
+    options: ClassVar = {}
+
+    def contribute(self, values, options, setup):
+        for station in dict.fromkeys(setup.sensor_stations):
+            node = setup.plant.station_node(station)
+            for d in range(3):
+                setup.links.append(("mass", 6 * node + d, -1, values["mass_kg"]))
+
+
+@register_effect
+class Aerodynamic(Effect):
+    name: ClassVar[str] = "aerodynamic"
+    default_scope: ClassVar[str] = "test"
+    description: ClassVar[str] = ("quasi-steady air forces per unit length, f = -(c v + k w), "
+                                  "lumped at the nodes by tributary length")
+    params: ClassVar = (EffectParam("damping_n_s_m2", 0.0, "damping per length, N s/m^2", 0.0),
+                        EffectParam("stiffness_n_m2", 0.0, "stiffness per length, N/m^2", 0.0))
+    options: ClassVar = {"direction": "z"}
+
+    def contribute(self, values, options, setup):
+        d = direction_index(options["direction"])
+        if d > 2:
+            raise ModelError("effect 'aerodynamic' acts on a translation (x, y or z)")
+        x = setup.plant.node_x_m(setup.parameters)
+        trib = np.zeros_like(x)
+        h = np.diff(x)
+        trib[:-1] += h / 2
+        trib[1:] += h / 2
+        for node, length in enumerate(trib):
+            if values["damping_n_s_m2"] > 0:
+                setup.links.append(("dashpot", 6 * node + d, -1,
+                                    values["damping_n_s_m2"] * length))
+            if values["stiffness_n_m2"] > 0:
+                setup.links.append(("spring", 6 * node + d, -1,
+                                    values["stiffness_n_m2"] * length))
+
+
+@register_effect
+class GravitySag(Effect):
+    name: ClassVar[str] = "sag"
+    default_scope: ClassVar[str] = "reassembly"
+    description: ClassVar[str] = ("static deflection under gravity; every element is rotated "
+                                  "by its sag angle (Eq. 10.5-10.6), coupling axial with "
+                                  "vertical bending")
+    params: ClassVar = (EffectParam("scale", 1.0, "multiple of the physical sag (1 = gravity "
+                                    "on the nominal supports)", 0.0),)
+    options: ClassVar = {}
+
+    def contribute(self, values, options, setup):
+        setup.sag_scale += values["scale"]
+
+
+def sag_angles(plant, params, additions, g_m_s2: float) -> np.ndarray:
+    """Element sag angles (rad) from the static deflection under gravity ``-g`` along z.
+
+    The static problem ``K w = f`` is solved on the vertical-bending DOFs (z, ry) of the
+    free DOFs with consistent gravity loads ``f = -g M 1_z``; each element's angle is the
+    chord slope ``(w_B - w_A) / L_e``.
+
+    Returns
+    -------
+    ndarray, shape (n_elements,)
+    """
+    from truthbench.plants.base import StructuralAdditions
+
+    flat = StructuralAdditions(additions.links, additions.element_stiffness_scale)
+    model = plant.build(params, additions=flat)
+    labels = np.array(model.dof_labels)
+    vert = np.array([lab.endswith((".z", ".ry")) for lab in labels])
+    z = np.array([lab.endswith(".z") for lab in labels])
+    K = model.K.toarray()[np.ix_(vert, vert)]
+    f = -g_m_s2 * (model.M @ z.astype(float))[vert]
+    try:
+        w_v = np.linalg.solve(K, f)
+    except np.linalg.LinAlgError:
+        raise ModelError("sag: the plant is not supported vertically (singular K in z)") \
+            from None
+    w = np.zeros(len(labels))
+    w[vert] = w_v
+    wz = np.zeros(plant.n_elements + 1)
+    for lab, value in zip(labels[z], w[z], strict=True):
+        wz[int(lab[1:].split(".")[0])] = value
+    x = plant.node_x_m(params)
+    return np.arctan(np.diff(wz) / np.diff(x))
