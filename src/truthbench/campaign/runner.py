@@ -7,15 +7,19 @@ The nominal model is then updated against all tests' FRFs. Randomness comes from
 count or order. A trial that fails is recorded with its error; the others finish.
 
 Simulation detail (see :func:`simulate_test`): the recorded force is a periodic,
-band-limited random signal, i.e. the samples of a smooth force. The structure is driven
+band-limited random signal, i.e. the samples of a smooth force. With
+``simulation = "periodic"`` (the default) the response is its exact periodic steady
+state, ``Y_k = G(j omega_k) U_k`` at every DFT line: no hold error and no transient.
+With ``simulation = "time"`` the structure is driven
 at ``oversample`` times the test rate through an exact first-order-hold simulation; a
 piecewise-linear force has the baseband spectrum of its samples times
 ``sinc^2(f / fs_fine)``, so the drive is pre-emphasised by the inverse of that factor to
 make its baseband equal the recorded force. What remains is the images of the hold near
 multiples of the fine rate, which alias back at a relative level of about
-``(f / fs_fine)^2`` (2e-4 at f = fs/10 with 8 times oversampling). A warm-up of one
-FRF segment (the periodic input's own tail) precedes the record so that the start-up
-transient does not leak into the first average.
+``(f / fs_fine)^2`` (2e-4 at f = fs/10 with 8 times oversampling). A warm-up of whole
+periods of the periodic input precedes the record, long enough for the slowest
+decaying pole to fall by 1e-6 (at least one segment, at most four records, see
+:func:`warm_up_samples`), so that the start-up transient does not leak into the FRFs.
 """
 
 from __future__ import annotations
@@ -48,6 +52,8 @@ class TestRecord:
         The exact truth parameters of the hardware in this test.
     input_labels, output_labels : tuple of str
     """
+
+    __test__ = False  # not a pytest test class
 
     name: str
     freq_hz: np.ndarray
@@ -90,7 +96,7 @@ class CampaignResult:
     stage_seconds: dict = field(default_factory=dict)
 
 
-def test_rng(seed: int, trial: int, test: int) -> np.random.Generator:
+def excitation_rng(seed: int, trial: int, test: int) -> np.random.Generator:
     """The excitation and noise generator of one (trial, test): independent of run order
     and worker count (effects draw from their own streams, see
     :mod:`truthbench.campaign.truth`)."""
@@ -121,6 +127,20 @@ def _apply_filters(x: np.ndarray, fs_hz: float, filters, delay_s: float = 0.0):
     return np.fft.irfft(X, n, axis=1)
 
 
+def warm_up_samples(A: np.ndarray, segment: int, fs_hz: float, n: int,
+                    decay: float = 1e-6) -> int:
+    """Samples of periodic warm-up before the record: long enough for the slowest
+    decaying (non-rigid) pole to fall by ``decay``, at least one FRF segment, at most
+    four records. Rigid-body (zero) poles do not decay and are left out."""
+    lam = np.linalg.eigvals(A)
+    rates = -lam.real[np.abs(lam) > 1e-9 * max(np.abs(lam).max(), 1e-300)]
+    rates = rates[rates > 0]
+    if rates.size == 0:
+        return segment
+    t = np.log(1.0 / decay) / rates.min()
+    return int(min(max(segment, np.ceil(t * fs_hz / 1.0)), 4 * n))
+
+
 def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
     """Simulate test ``j`` on the hardware described by ``setup``
     (:class:`~truthbench.effects.TestSetup`).
@@ -140,11 +160,11 @@ def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
     n_act = len(acts)
     disturbers = [Actuator(st, d) for st, d, _ in setup.disturbances]
     model = setup.plant.build(setup.parameters, acts + disturbers, sens, setup.additions)
-    A, B, C, D = modal_system(model, model.modes())
+    modes = model.modes()
     n = int(round(test.record_s * test.fs_hz))
-    R = test.oversample
+    R = 1 if test.simulation == "periodic" else test.oversample
     fine_fs = test.fs_hz * R
-    # periodic band-limited force at the fine rate; its decimation is exact
+    # periodic band-limited force; at the fine rate its decimation is exact
     u_fine = band_limited_random(n * R, fine_fs, test.level_rms, tuple(test.band_hz), rng,
                                  n_inputs=n_act)
     forces = _apply_filters(u_fine, fine_fs, setup.input_filters)  # actuator dynamics
@@ -154,11 +174,22 @@ def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
                                                         tuple(test.band_hz), rng,
                                                         n_inputs=len(disturbers))])
     f = np.fft.rfftfreq(n * R, 1.0 / fine_fs)
-    drive = np.fft.irfft(np.fft.rfft(forces, axis=1) / np.sinc(f / fine_fs) ** 2, n * R,
-                         axis=1)
-    warm = (n // test.averages) * R  # one segment of the periodic input as warm-up
-    drive = np.concatenate([drive[:, -warm:], drive], axis=1)
-    y_fine = simulate_lti(A, B, C, D, drive, 1.0 / fine_fs)[:, warm:]
+    F = np.fft.rfft(forces, axis=1)
+    if test.simulation == "periodic":
+        # excited lines (the force is band-limited; rounding leaves ~1e-16 elsewhere);
+        # no static (0 Hz) force: a free body would drift away under it
+        excited = np.any(np.abs(F) > 1e-12 * np.abs(F).max(), axis=0) & (f > 0)
+        Y = np.zeros((len(sens), len(f)), dtype=complex)
+        H = model.frf(f[excited], modes=modes)  # (n_exc, n_out, n_in)
+        Y[:, excited] = np.einsum("foi,if->of", H, F[:, excited])
+        y_fine = np.fft.irfft(Y, n, axis=1)
+    else:
+        A, B, C, D = modal_system(model, modes)
+        drive = np.fft.irfft(F / np.sinc(f / fine_fs) ** 2, n * R, axis=1)
+        warm = warm_up_samples(A, n // test.averages, fine_fs, n) * R
+        reps = -(-warm // (n * R))  # whole periods of the periodic drive before the record
+        drive = np.concatenate([np.tile(drive, (1, reps))[:, -warm:], drive], axis=1)
+        y_fine = simulate_lti(A, B, C, D, drive, 1.0 / fine_fs)[:, warm:]
     y_fine = _apply_filters(y_fine, fine_fs, setup.output_filters, setup.delay_s)
     u, y = u_fine[:, ::R], y_fine[:, ::R]
     y = setup.bias_gain * y + setup.bias_offset
@@ -254,14 +285,14 @@ def update_trial(spec: CampaignSpec, records):
 
 def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
     """Run one Monte Carlo trial; a failure is recorded, not raised."""
-    from truthbench.campaign.truth import test_setup
+    from truthbench.campaign.truth import build_test_setup
 
     truth = spec.truth_parameters()
     records: list[TestRecord] = []
     try:
         for j in range(len(spec.tests)):
-            setup = test_setup(spec, trial, j, seed)
-            u, y = simulate_test(spec, j, setup, test_rng(seed, trial, j))
+            setup = build_test_setup(spec, trial, j, seed)
+            u, y = simulate_test(spec, j, setup, excitation_rng(seed, trial, j))
             records.append(measure_test(spec, j, u, y, truth_record(setup)))
         if spec.update.method == "none":
             return TrialResult(trial, tuple(records), truth)

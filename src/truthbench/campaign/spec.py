@@ -69,6 +69,8 @@ class TruthSpec(_Strict):
 class TestSpec(_Strict):
     """One test of the test matrix."""
 
+    __test__ = False  # not a pytest test class
+
     name: str
     actuators: Annotated[list[ActuatorSpec], Field(min_length=1)]
     sensors: list[SensorSpec] | None = None
@@ -80,6 +82,9 @@ class TestSpec(_Strict):
     window: Literal["rectangular", "bartlett", "hann", "hamming"] = "bartlett"
     noise_fraction: NonNegFloat = 0.0
     oversample: Annotated[int, Field(ge=1, le=64)] = 8
+    simulation: Literal["periodic", "time"] = "periodic"
+    """"periodic": exact steady state of the periodic record, line by line (linear truth);
+    "time": exact first-order-hold time stepping at ``oversample`` times the rate."""
     assembly: Annotated[int, Field(ge=0)] = 0
     """Which assembly of the hardware (reassembly-scope effects are redrawn per value)."""
     time_h: NonNegFloat = 0.0

@@ -58,7 +58,7 @@ def _values(spec, eff, k: int, seed: int, trial: int, j: int) -> dict[str, float
     return _drift(spec, eff, k, seed, trial, test.time_h)
 
 
-def test_setup(spec, trial: int, j: int, seed: int, extra_effects=()) -> TestSetup:
+def build_test_setup(spec, trial: int, j: int, seed: int, extra_effects=()) -> TestSetup:
     """The realised truth of test ``j`` in trial ``trial``.
 
     ``extra_effects`` (:class:`~truthbench.effects.EffectSpec`) are added after the

@@ -53,6 +53,8 @@ class TestSetup:
         Realised parameter values of every effect, by effect label.
     """
 
+    __test__ = False  # not a pytest test class
+
     plant: Plant
     parameters: dict
     additions: StructuralAdditions = StructuralAdditions()

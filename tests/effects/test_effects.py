@@ -1,0 +1,317 @@
+"""The uncertainty table: every effect changes what it should, and nothing else."""
+
+import numpy as np
+import pytest
+
+from truthbench.campaign.runner import excitation_rng, simulate_test
+from truthbench.campaign.spec import parse_campaign
+from truthbench.campaign.truth import build_test_setup
+from truthbench.effects import EFFECTS, effect_from_inject, parse_effect
+from truthbench.errors import CampaignError
+from truthbench.measure import estimate_frf
+from truthbench.plants import Actuator, Sensor
+from truthbench.simulate import noise_to_signal_ratio
+
+COVERED = set()  # effects exercised below; the last test checks every effect is
+
+
+def _spec(base, effects=(), test_effects=None):
+    base["truth"]["effects"] = list(effects)
+    if test_effects is not None:
+        base["tests"][1]["effects"] = test_effects
+    return parse_campaign(base)
+
+
+def _structure(spec, j=0, trial=0):
+    setup = build_test_setup(spec, trial, j, spec.campaign.seed)
+    model = setup.plant.build(setup.parameters, [], [], setup.additions)
+    return setup, model
+
+
+def test_material_changes_stiffness_only(base):
+    COVERED.add("material")
+    ref = _structure(_spec(base))[1]
+    s, m = _structure(_spec(base, [{"name": "material", "parameters": {"E_rel": 0.05}}]))
+    np.testing.assert_allclose(m.K.toarray(), ref.K.toarray() * np.where(
+        ref.K.toarray() == 0, 1, 1), rtol=0.06)
+    assert not np.allclose(m.K.toarray(), ref.K.toarray())
+    np.testing.assert_allclose(m.M.toarray(), ref.M.toarray(), atol=1e-15)
+    assert s.parameters["E_pa"] == pytest.approx(68.9e9 * 1.05)
+    assert s.effects["material"]["E_rel"] == 0.05
+
+
+def test_geometry_thickness_scales_mass_and_stiffness(base):
+    COVERED.add("geometry")
+    ref = _structure(_spec(base))[1]
+    _, m = _structure(_spec(base, [{"name": "geometry", "parameters": {"t_rel": 0.02}}]))
+    beam = ref.M.toarray() != 0
+    ratio = m.M.toarray()[beam] / ref.M.toarray()[beam]
+    assert np.allclose(ratio, 1.02)  # Table 10.2: t acts on every mass entry
+
+
+def test_parameter_effect_scales_a_named_parameter(base):
+    COVERED.add("parameter")
+    s, _ = _structure(_spec(base, [{"name": "parameter", "parameter": "suspension_stiffness_n_m",
+                                    "parameters": {"rel": -0.5}}]))
+    assert s.parameters["suspension_stiffness_n_m"] == pytest.approx(100.0)
+
+
+def test_discretization_error_follows_h4(base):
+    """Truth meshed finer than the model: the truth-minus-model frequency differences of
+    the first three lateral bending modes fall about 16 times when the model's elements
+    are halved (consistent-mass Hermite elements, h^4)."""
+    from truthbench.model import modal_table
+
+    COVERED.add("discretization")
+
+    def bending_y(model):
+        rows = modal_table(model, model.modes(40))
+        return np.array([r["freq_hz"] for r in rows if r["shape"].startswith("bending y")
+                         and not r["shape"].startswith("rigid")][:3])
+
+    diffs = []
+    for n in (10, 20):
+        base["plant"]["n_elements"] = n
+        spec = _spec(base, [{"name": "discretization", "refine": 160 // n}])
+        truth = bending_y(_structure(spec)[1])
+        model = bending_y(spec.make_plant().build(spec.nominal_parameters()))
+        diffs.append((model - truth) / truth)
+    ratio = diffs[0] / diffs[1]
+    assert np.all(diffs[1] > 0)
+    assert np.all((ratio > 14) & (ratio < 17)), ratio
+
+
+def test_element_physics_lowers_frequencies_more_for_higher_modes(base):
+    COVERED.add("element_physics")
+    from truthbench.model import modal_table
+
+    base["plant"]["n_elements"] = 20
+    spec = _spec(base, [{"name": "element_physics"}])
+    setup, truth = _structure(spec)
+    assert setup.plant.timoshenko
+    model = spec.make_plant().build(spec.nominal_parameters())
+
+    def bending_y(m):
+        rows = modal_table(m, m.modes(40))
+        return np.array([r["freq_hz"] for r in rows if r["shape"].startswith("bending y")][:5])
+
+    t, m = bending_y(truth), bending_y(model)
+    rel = (t - m) / m
+    # shear and rotary inertia lower the frequencies, more for shorter wavelengths
+    assert np.all(rel < 0) and np.all(np.diff(rel) < 0), rel
+
+
+def test_boundary_draws_differ_per_test(base):
+    COVERED.add("boundary")
+    spec = _spec(base, [{"name": "boundary", "parameters": {
+        "stiffness_rel": {"mean": 0.0, "std": 0.2}}}])
+    k0 = build_test_setup(spec, 0, 0, 1).parameters["suspension_stiffness_n_m"]
+    k1 = build_test_setup(spec, 0, 1, 1).parameters["suspension_stiffness_n_m"]
+    assert k0 != k1  # scope "test" by default
+
+
+def test_joint_adds_concentrated_damping_and_stiffness_loss(base):
+    COVERED.add("joint")
+    ref = _structure(_spec(base))[1]
+    _, m = _structure(_spec(base, [{"name": "joint", "station": "mid", "parameters": {
+        "stiffness_loss": 0.3, "damping_n_m_s_rad": 2.0}}]))
+    C = m.C.toarray() - ref.C.toarray()
+    nz = np.argwhere(np.abs(C) > 0)
+    labels = {m.dof_labels[i] for i in nz.ravel()}
+    assert labels == {"n4.ry", "n5.ry"}  # across the element starting at mid
+    assert C[np.ix_(*[[m.dof_labels.index("n4.ry"), m.dof_labels.index("n5.ry")]] * 2)] \
+        == pytest.approx(2.0 * np.array([[1, -1], [-1, 1]]))
+    assert np.trace(m.K.toarray()) < np.trace(ref.K.toarray())
+    np.testing.assert_allclose(m.M.toarray(), ref.M.toarray(), atol=1e-15)
+
+
+def test_added_mass_shift_matches_rayleigh(base):
+    """First-order (Rayleigh) estimate: d(omega^2)/omega^2 = -dm phi_z(station)^2 for a
+    mass-normalised mode."""
+    COVERED.add("added_mass")
+    dm = 0.0005  # the estimate's error is second order: measured 10 %, 1 %, 0.1 % at 5, 0.5, 0.05 g
+    spec0 = _spec(base)
+    ref = _structure(spec0)[1]
+    modes = ref.modes(12)
+    _, m = _structure(_spec(base, test_effects=[]), 0)
+    base["tests"][0]["effects"] = [{"name": "added_mass", "station": "end_b",
+                                    "parameters": {"mass_kg": dm}}]
+    spec = parse_campaign(base)
+    _, m = _structure(spec, 0)
+    new = m.modes(12).omega_rad_s
+    iz = ref.dof_labels.index("n8.z")
+    ix, iy = ref.dof_labels.index("n8.x"), ref.dof_labels.index("n8.y")
+    phi2 = sum(modes.shapes[i] ** 2 for i in (ix, iy, iz))
+    flex = modes.omega_rad_s > 1.0
+    predicted = -dm * phi2[flex]
+    actual = new[flex] ** 2 / modes.omega_rad_s[flex] ** 2 - 1
+    big = np.abs(predicted) > 1e-4
+    np.testing.assert_allclose(actual[big], predicted[big], rtol=0.02)
+    # the other test has no added mass
+    _, other = _structure(spec, 1)
+    np.testing.assert_allclose(other.M.toarray(), ref.M.toarray(), atol=1e-15)
+
+
+def test_sensor_mass_loads_only_sensor_stations(base):
+    COVERED.add("sensor_mass")
+    ref = _structure(_spec(base))[1]
+    _, m = _structure(_spec(base, [{"name": "sensor_mass", "parameters": {"mass_kg": 0.01}}]))
+    d = np.diag(m.M.toarray() - ref.M.toarray())
+    loaded = {m.dof_labels[i].split(".")[0] for i in np.flatnonzero(np.abs(d) > 1e-12)}
+    assert loaded == {"n0", "n4", "n8"}  # end_a, mid, end_b
+
+
+def test_aerodynamic_damping_in_one_direction(base):
+    COVERED.add("aerodynamic")
+    _, m = _structure(_spec(base, [{"name": "aerodynamic", "direction": "y",
+                                    "parameters": {"damping_n_s_m2": 0.5}}]))
+    d = np.diag(m.C.toarray())
+    y = np.array([lab.endswith(".y") for lab in m.dof_labels])
+    assert np.all(d[y] > 0) and d[~y].max() == 0.0
+    assert d[y].sum() == pytest.approx(0.5 * 1.8)  # damping per length x length
+
+
+def test_sag_couples_axial_and_vertical_and_grows(base):
+    COVERED.add("sag")
+    freq = np.linspace(20, 300, 200)
+    cross = []
+    for scale in (0.0, 1.0, 4.0):
+        eff = [{"name": "sag", "parameters": {"scale": scale}}] if scale else []
+        setup, _ = _structure(_spec(base, eff))
+        model = setup.plant.build(setup.parameters, [Actuator("end_a", "x")],
+                                  [Sensor("mid", "z")], setup.additions)
+        cross.append(np.abs(model.frf(freq)).max())
+    assert cross[0] < 1e-9 * cross[1]  # zero to rounding without sag
+    assert 0 < cross[1] < cross[2]
+
+
+def _record(spec, j=0, seed=7):
+    setup = build_test_setup(spec, 0, j, seed)
+    return setup, simulate_test(spec, j, setup, excitation_rng(seed, 0, j))
+
+
+def test_time_delay_phase_is_minus_omega_tau(base):
+    """Noise-free, one rectangular-window segment over the periodic record: the data's
+    phase minus the model's is -omega tau (within 1e-3 rad)."""
+    COVERED.add("time_delay")
+    tau = 2.5e-3
+    for t in base["tests"]:
+        t.update(averages=1, window="rectangular", oversample=8)
+    spec = _spec(base, [{"name": "time_delay", "parameters": {"delay_s": tau}}])
+    setup, (u, y) = _record(spec)
+    est = estimate_frf(u, y, spec.tests[0].fs_hz, window="rectangular", n_averages=1)
+    band = (est.freq_hz > 10) & (est.freq_hz < 300)
+    model = setup.plant.build(setup.parameters, [Actuator("end_a", "z")],
+                              [Sensor("end_a", "z"), Sensor("mid", "z"), Sensor("end_b", "z")])
+    H = model.frf(est.freq_hz[band])
+    dphi = np.angle(est.H[band] / H)
+    expected = np.angle(np.exp(-2j * np.pi * est.freq_hz[band] * tau))[:, None, None]
+    err = np.angle(np.exp(1j * (dphi - expected)))
+    assert np.abs(err).max() < 1e-3
+
+
+def test_actuator_and_sensor_dynamics_multiply_the_frf(base):
+    COVERED.update({"actuator_dynamics", "sensor_dynamics"})
+    for t in base["tests"]:
+        t.update(averages=1, window="rectangular")
+    plain = _record(_spec(base))[1]
+    spec = _spec(base, [{"name": "actuator_dynamics", "parameters": {"bandwidth_hz": 50.0}},
+                        {"name": "sensor_dynamics", "parameters": {"bandwidth_hz": 150.0}}])
+    u, y = _record(spec)[1]
+    fs = spec.tests[0].fs_hz
+    e0 = estimate_frf(*plain, fs, window="rectangular", n_averages=1)
+    e1 = estimate_frf(u, y, fs, window="rectangular", n_averages=1)
+    band = (e0.freq_hz > 5) & (e0.freq_hz < 300)
+    s = 2j * np.pi * e0.freq_hz[band]
+    wa, ws = 2 * np.pi * 50.0, 2 * np.pi * 150.0
+    expected = (wa / (s + wa)) * ws**2 / (s**2 + 1.4 * ws * s + ws**2)
+    ratio = e1.H[band] / e0.H[band]
+    np.testing.assert_allclose(ratio, np.broadcast_to(expected[:, None, None], ratio.shape),
+                               rtol=1e-6)
+
+
+def test_sensor_noise_and_bias_realised_as_requested(base):
+    COVERED.update({"sensor_noise", "sensor_bias"})
+    clean = _record(_spec(base))[1][1]
+    spec = _spec(base, [{"name": "sensor_noise", "parameters": {"noise_fraction": 0.1}}])
+    noisy = _record(spec)[1][1]
+    ratio = noise_to_signal_ratio(clean, noisy)
+    n = clean.shape[1]
+    # the std of a sample std is about sigma / sqrt(2 N): 5 of those
+    assert np.all(np.abs(ratio - 0.1) < 5 * 0.1 / np.sqrt(2 * n))
+    spec = _spec(base, [{"name": "sensor_bias", "parameters": {"offset": 0.3,
+                                                                "gain_error": -0.1}}])
+    biased = _record(spec)[1][1]
+    np.testing.assert_allclose(biased, 0.9 * clean + 0.3, rtol=1e-12, atol=1e-12)
+
+
+def test_process_noise_lowers_coherence(base):
+    COVERED.add("process_noise")
+    for t in base["tests"]:
+        t.update(averages=8, record_s=16.0)
+    fs = base["tests"][0]["fs_hz"]
+    u, y = _record(_spec(base))[1]
+    c0 = estimate_frf(u, y, fs, n_averages=8).coherence
+    spec = _spec(base, [{"name": "process_noise", "station": "mid", "direction": "z",
+                         "parameters": {"rms": 2.0}}])
+    u1, y1 = _record(spec)[1]
+    np.testing.assert_array_equal(u, u1)  # the recorded force is unchanged
+    c1 = estimate_frf(u1, y1, fs, n_averages=8).coherence
+    band = slice(20, 300)
+    assert c1[band].mean() < c0[band].mean() - 0.1
+
+
+def test_scopes(base):
+    eff = lambda scope: {"name": "material", "scope": scope,  # noqa: E731
+                         "parameters": {"E_rel": {"mean": 0.0, "std": 0.05}}}
+    base["tests"].append({**base["tests"][0], "name": "third", "assembly": 1, "time_h": 5.0})
+    base["tests"][1]["time_h"] = 0.01
+    values = {}
+    for scope in ("hardware", "reassembly", "test", "drift"):
+        spec = _spec(base, [eff(scope)])
+        values[scope] = [build_test_setup(spec, 0, j, 3).parameters["E_pa"] for j in range(3)]
+    h, r, t, d = (values[k] for k in ("hardware", "reassembly", "test", "drift"))
+    assert h[0] == h[1] == h[2]
+    assert r[0] == r[1] != r[2]  # tests 0 and 1 share assembly 0
+    assert len(set(t)) == 3
+    # drift: starts at the mean at t = 0, moves little in 0.01 h, more in 5 h
+    assert d[0] == pytest.approx(68.9e9)
+    assert abs(d[1] - d[0]) < abs(d[2] - d[0])
+    # a different trial is different hardware
+    spec = _spec(base, [eff("hardware")])
+    assert build_test_setup(spec, 1, 0, 3).parameters["E_pa"] != h[0]
+
+
+def test_inject_adds_an_undeclared_effect(base):
+    spec = _spec(base)
+    extra = effect_from_inject("joint:station=mid,stiffness_loss=0.2,damping_n_m_s_rad=1.5")
+    setup = build_test_setup(spec, 0, 0, 3, extra_effects=[extra])
+    assert setup.effects["joint"]["stiffness_loss"] == 0.2
+    assert setup.effects["joint"]["station"] == "mid"
+
+
+@pytest.mark.parametrize("entry,match", [
+    ({"name": "magnetism"}, r"truth.effects\[0\].name'.*unknown effect 'magnetism'"),
+    ({"name": "material", "parameters": {"E_rel": {"mean": 0.0, "std": -1.0}}},
+     r"E_rel.std'.*standard deviation >= 0"),
+    ({"name": "material", "scope": "weekly"}, r"scope'.*hardware, reassembly, test, drift"),
+    ({"name": "material", "parameters": {"G_rel": 0.1}}, r"no parameter 'G_rel'"),
+    ({"name": "joint"}, r"needs option 'station'"),
+    ({"name": "joint", "station": "nose"}, r"no station 'nose'"),
+])
+def test_bad_effect_entries(base, entry, match):
+    base["truth"]["effects"] = [entry]
+    with pytest.raises(CampaignError, match="(?s)" + match):
+        parse_campaign(base, "cfg.toml")
+
+
+def test_bad_inject():
+    with pytest.raises(CampaignError, match="no parameter 'bogus'"):
+        effect_from_inject("time_delay:bogus=1")
+    with pytest.raises(CampaignError, match="unknown effect"):
+        parse_effect({"name": "nothing"}, "x")
+
+
+def test_every_registered_effect_is_tested():
+    # runs last in this file (pytest keeps file order)
+    assert set(EFFECTS) <= COVERED, sorted(set(EFFECTS) - COVERED)

@@ -1,0 +1,384 @@
+"""The identify workflow: data file -> FRFs -> modal parameters.
+
+Oracles: FRFs written analytically from a known modal model (outside the library's own
+LSFD model), exact time simulations of known modal systems (impact and random tests),
+the window identity ``(h * x) w = (h w) * (x w)`` for ``w = exp(-sigma_w t)`` that makes
+the exponential-window correction exact, and the LADISK measured beam record with the
+rough numbers of its README (frequencies) and of the brief (damping).
+"""
+
+from __future__ import annotations
+
+import importlib.resources
+import json
+import warnings
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from truthbench.errors import DataFormatError
+from truthbench.identify import ModalParameters, mac
+from truthbench.identify_data import (
+    EULER_BERNOULLI_FREE_FREE_RATIOS,
+    FRFData,
+    correct_exponential_window,
+    frfs_from_time,
+    identify_file,
+    identify_frfs,
+    load_frfs,
+)
+from truthbench.io import (
+    ladisk_beam_impact,
+    registered_extensions,
+    write_uff58_frf,
+    write_uff58_time,
+)
+from truthbench.simulate import add_sensor_noise, simulate_lti
+
+SHIPPED_LVM = Path(str(importlib.resources.files("truthbench").joinpath(
+    "data/ladisk_beam_impact/acceleration.lvm")))
+
+# a known two-mode model: frequencies (Hz), damping ratios, shapes at 3 outputs, input row 0
+F_HZ = np.array([20.0, 55.0])
+ZETA = np.array([0.01, 0.02])
+PHI = np.array([[1.0, 1.0], [0.6, -0.8], [-0.4, 0.5]])
+
+
+def modal_frf(freq_hz, q=2, phi=PHI, f_hz=F_HZ, zeta=ZETA, inp=0):
+    """(j w)^q sum_r phi_r phi_r[inp] / (w_r^2 - w^2 + 2 j zeta_r w_r w), (n, n_out, 1)."""
+    w = 2 * np.pi * np.asarray(freq_hz)[:, None]
+    wr = 2 * np.pi * f_hz[None, :]
+    d = 1.0 / (wr**2 - w**2 + 2j * zeta * wr * w)  # (n, modes)
+    H = (d * phi[inp][None, :]) @ phi.T
+    return ((1j * w) ** q * H)[:, :, None]
+
+
+def modal_state_space(f_hz, zeta, phi, inp=0):
+    """Acceleration outputs at the rows of phi for a force at row inp (unit modal mass)."""
+    w = 2 * np.pi * np.asarray(f_hz)
+    m = w.size
+    A = np.zeros((2 * m, 2 * m))
+    A[:m, m:] = np.eye(m)
+    A[m:, :m] = -np.diag(w**2)
+    A[m:, m:] = -np.diag(2 * zeta * w)
+    B = np.concatenate([np.zeros(m), phi[inp]])[:, None]
+    C = phi @ np.hstack([-np.diag(w**2), -np.diag(2 * zeta * w)])
+    D = (phi @ phi[inp])[:, None]
+    return A, B, C, D
+
+
+def write_lvm(path: Path, names, units, data, dt_s, samples=None):
+    n_ch, n = data.shape
+    lines = ["LabVIEW Measurement\t", "Writer_Version\t2", "Reader_Version\t2",
+             "Separator\tTab", "Decimal_Separator\t.", "Multi_Headings\tYes",
+             "X_Columns\tNo", "Time_Pref\tAbsolute", "Date\t2024/01/02",
+             "Time\t10:00:00.0", "***End_of_Header***\t", "\t",
+             "Channels\t" + "\t".join([str(n_ch)] * 1) + "\t" * n_ch,
+             "Samples\t" + "\t".join([str(samples or n)] * n_ch) + "\t",
+             "Date\t" + "\t".join(["2024/01/02"] * n_ch) + "\t",
+             "Time\t" + "\t".join(["10:00:00.0"] * n_ch) + "\t",
+             "Y_Unit_Label\t" + "\t".join(units) + "\t",
+             "X_Dimension\t" + "\t".join(["Time"] * n_ch) + "\t",
+             "X0\t" + "\t".join(["0.0000000000000000E+0"] * n_ch) + "\t",
+             "Delta_X\t" + "\t".join([f"{dt_s:.6E}"] * n_ch) + "\t",
+             "***End_of_Header***\t" + "\t" * n_ch,
+             "X_Value\t" + "\t".join(names) + "\tComment"]
+    lines += ["\t" + "\t".join(f"{v:.10e}" for v in row) for row in data.T]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+# ------------------------------------------------------------------------ the measured beam
+
+
+@pytest.fixture(scope="module")
+def ladisk_id():
+    rec = ladisk_beam_impact()
+    frf = frfs_from_time(rec.inputs, rec.outputs, rec.fs_hz, frf_type="acceleration",
+                         input_labels=rec.input_names, output_labels=rec.output_names,
+                         name="ladisk")
+    return identify_frfs(frf)
+
+
+def test_ladisk_first_three_bending_modes(ladisk_id):
+    d = ladisk_id
+    assert d.data.excitation == "impact"
+    top = np.sort(np.argsort(d.peak_magnitude)[::-1][:3])  # the three strongest modes
+    f = d.modal.freq_hz[top]
+    z = d.modal.damping_ratio[top]
+    # measured here: 695.68, 1898.03, 3671.34 Hz; 0.456 %, 0.307 %, 0.197 %
+    np.testing.assert_allclose(f, [695.6, 1897.9, 3671.0], rtol=0.005)
+    rough = np.array([0.0046, 0.0030, 0.0020])
+    assert np.all(z > rough / 2) and np.all(z < rough * 2)
+    # the exponential window's sigma_w = ln(100) fs / (n - 1) was removed from each pole
+    sigma_w = np.log(100.0) * 50_000.0 / (50030 - 1)
+    assert d.data.window_decay_rad_s == pytest.approx(sigma_w, rel=1e-9)
+    w = 2 * np.pi * f
+    np.testing.assert_allclose(d.damping_ratio_uncorrected[top] - z, sigma_w / w, rtol=1e-3)
+    # the residual of the slender-beam model: ratios below Euler-Bernoulli (informational)
+    ratios = d.strongest_ratios(3)
+    assert np.all(ratios < np.array(EULER_BERNOULLI_FREE_FREE_RATIOS))
+    np.testing.assert_allclose(EULER_BERNOULLI_FREE_FREE_RATIOS, [2.757, 5.404], atol=5e-4)
+
+
+def test_ladisk_through_the_lvm_file_gives_the_same_modes(ladisk_id):
+    report = identify_file(SHIPPED_LVM)
+    assert report.file_format == "lvm" and len(report.datasets) == 1
+    d = report.datasets[0]
+    assert d.data.input_labels == ("Force (Trigger)",)
+    assert d.data.output_labels == ("Acceleration (Trigger)",)
+    np.testing.assert_allclose(d.modal.freq_hz, ladisk_id.modal.freq_hz, rtol=1e-9)
+    np.testing.assert_allclose(d.modal.damping_ratio, ladisk_id.modal.damping_ratio,
+                               rtol=1e-6)
+    json.dumps(report.to_dict())  # serialisable
+
+
+def test_ladisk_peak_picking_agrees(ladisk_id):
+    report = identify_file(SHIPPED_LVM, method="peak", band_hz=(300, 4500), n_modes=3)
+    d = report.datasets[0]
+    np.testing.assert_allclose(d.modal.freq_hz, [695.6, 1897.9, 3671.0], rtol=0.005)
+    rough = np.array([0.0046, 0.0030, 0.0020])
+    assert np.all(d.modal.damping_ratio > rough / 2)
+    assert np.all(d.modal.damping_ratio < rough * 2)
+
+
+# ------------------------------------------------------------------------ synthetic files
+
+
+@pytest.fixture(scope="module")
+def uff_frf_file(tmp_path_factory):
+    f = np.arange(1, 801) * 0.25  # 0.25 .. 200 Hz, exact in 6 digits
+    path = tmp_path_factory.mktemp("uff") / "frf.uff"
+    write_uff58_frf(path, f, modal_frf(f), resp_nodes=[1, 2, 3], resp_dirs=[3, 3, 3],
+                    ref_nodes=[1], ref_dirs=[3], frf_type="accelerance")
+    return path
+
+
+def test_uff_frf_file(uff_frf_file):
+    report = identify_file(uff_frf_file, max_order=20)
+    assert report.file_format == "uff"
+    d = report.datasets[0]
+    assert d.data.frf_type == "acceleration" and d.data.excitation == "frf"
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
+    np.testing.assert_allclose(d.modal.damping_ratio, ZETA, rtol=1e-3)
+    assert np.all(np.diag(mac(PHI, d.modal.shapes)) > 0.9999)
+    rows = d.table()
+    assert [r["mode"] for r in rows] == [1, 2] and len(rows[0]["shape"]) == 3
+    np.testing.assert_allclose(rows[1]["shape"], PHI[:, 1] / PHI[0, 1], atol=1e-4)
+    frame = report.to_pandas()
+    assert list(frame["mode"]) == [1, 2]
+
+
+def test_uff_frf_file_peak_picking(uff_frf_file):
+    d = identify_file(uff_frf_file, method="peak").datasets[0]
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=2e-3)
+    np.testing.assert_allclose(d.modal.damping_ratio, ZETA, rtol=0.05)
+
+
+def test_uff_time_random_test(tmp_path):
+    fs, n = 256.0, 8 * 8192
+    rng = np.random.default_rng(1)
+    u = rng.standard_normal(n)
+    y = simulate_lti(*modal_state_space(F_HZ, ZETA, PHI[:2]), u, 1 / fs)
+    y = add_sensor_noise(y, 0.01, rng)
+    path = write_uff58_time(tmp_path / "time.uff", np.vstack([u, y]), 1 / fs,
+                            resp_nodes=[1, 1, 2], resp_dirs=[3, 3, 3],
+                            quantities=["force", "acceleration", "acceleration"],
+                            resp_names=["shaker", "acc1", "acc2"], binary=True)
+    d = identify_file(path).datasets[0]
+    assert d.data.excitation == "random" and d.data.input_labels == ("shaker",)
+    assert d.data.output_labels == ("acc1", "acc2")
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=2e-3)
+    np.testing.assert_allclose(d.modal.damping_ratio, ZETA, rtol=0.1)
+
+
+def impact_record(fs=2000.0, n=4000, f_hz=50.0, zeta=0.005, baseline=0.3):
+    """Half-sine hammer pulse (8 samples) at sample 20 on an SDOF accelerance."""
+    u = np.zeros(n)
+    u[20:28] = 100.0 * np.sin(np.pi * (np.arange(8) + 0.5) / 8)
+    phi = np.array([[1.0]])
+    y = simulate_lti(*modal_state_space([f_hz], np.array([zeta]), phi), u, 1 / fs)
+    return u + baseline, y[0]
+
+
+def test_lvm_impact_exponential_window_correction(tmp_path):
+    fs, n, f_hz, zeta = 2000.0, 4000, 50.0, 0.005
+    u, y = impact_record(fs, n, f_hz, zeta)
+    path = write_lvm(tmp_path / "impact.lvm", ["Acceleration", "Force"], ["m/s^2", "N"],
+                     np.vstack([y, u]), 1 / fs)
+    report = identify_file(path, max_order=10)
+    d = report.datasets[0]
+    assert d.data.excitation == "impact"
+    assert any("baseline 0.3 removed" in note for note in d.data.notes)
+    sigma_w = np.log(100.0) * fs / (n - 1)
+    assert d.data.window_decay_rad_s == pytest.approx(sigma_w)
+    assert d.n_modes == 1
+    w = 2 * np.pi * f_hz
+    assert d.modal.freq_hz[0] == pytest.approx(f_hz, rel=1e-4)
+    # uncorrected: structure plus window, (zeta w + sigma_w) / w = 1.23 %; corrected 0.5 %
+    assert d.damping_ratio_uncorrected[0] == pytest.approx(zeta + sigma_w / w, rel=0.01)
+    assert d.modal.damping_ratio[0] == pytest.approx(zeta, rel=0.02)
+    peak = identify_file(path, method="peak", n_modes=1).datasets[0]
+    assert peak.modal.damping_ratio[0] == pytest.approx(zeta, rel=0.15)
+
+
+def test_correct_exponential_window_moves_poles_exactly():
+    modal = ModalParameters(freq_hz=[10.0, 30.0], damping_ratio=[0.05, 0.02],
+                            shapes=[[1.0, 1.0]])
+    out = correct_exponential_window(modal, 2.0)
+    s = -np.array([0.05, 0.02]) * 2 * np.pi * np.array([10.0, 30.0])
+    wd = 2 * np.pi * np.array([10.0, 30.0]) * np.sqrt(1 - np.array([0.05, 0.02]) ** 2)
+    s_new = (s + 2.0) + 1j * wd
+    np.testing.assert_allclose(out.freq_hz, np.abs(s_new) / (2 * np.pi), rtol=1e-12)
+    np.testing.assert_allclose(out.damping_ratio, -s_new.real / np.abs(s_new), rtol=1e-12)
+    assert correct_exponential_window(modal, 0.0) is modal
+    with pytest.raises(ValueError, match=r"decay more slowly .* than the window adds"):
+        correct_exponential_window(modal, 5.0)
+
+
+def write_results_h5(path, outputs, H, f, band=(5.0, 100.0)):
+    with h5py.File(path, "w") as h:
+        h.attrs["format"] = "truthbench-results-1"
+        h.attrs["spec_json"] = json.dumps({"tests": [{"name": "t1", "band_hz": list(band)}]})
+        t = h.create_group("trials/0000/tests/t1")
+        t.create_dataset("freq_hz", data=f)
+        t.create_dataset("H", data=H)
+        t.attrs["output_labels"] = outputs
+        t.attrs["input_labels"] = ["a.z"]
+        t.attrs["fs_hz"] = 256.0
+    return path
+
+
+def test_results_file_uses_the_stored_band(tmp_path):
+    f = np.arange(0, 1025) * 0.125  # 0 .. 128 Hz
+    H = modal_frf(f)[:, :2]
+    H[f > 100] = 1e6 * (1 + 1j)  # junk outside the excited band must not be used
+    path = write_results_h5(tmp_path / "r.h5", ["a.z.acc", "b.z.acc"], H, f)
+    assert ".h5" in registered_extensions() and ".hdf5" in registered_extensions()
+    fmt, frfs = load_frfs(path)
+    assert fmt == "hdf5" and isinstance(frfs[0], FRFData)
+    assert frfs[0].name == "trial 0 / t1" and frfs[0].band_hz == (5.0, 100.0)
+    d = identify_file(path, max_order=20).datasets[0]
+    assert d.band_hz == (5.0, 100.0)
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
+    np.testing.assert_allclose(d.modal.damping_ratio, ZETA, rtol=1e-3)
+
+
+def test_results_file_with_mixed_outputs_is_made_displacement_equivalent(tmp_path):
+    f = np.arange(0, 1025) * 0.125
+    H = np.concatenate([modal_frf(f, q=2)[:, :1], modal_frf(f, q=0)[:, 1:2]], axis=1)
+    path = write_results_h5(tmp_path / "m.hdf5", ["a.z.acc", "root.y.str"], H, f)
+    d = identify_file(path, max_order=20).datasets[0]
+    assert d.data.frf_type == "displacement" and d.data.freq_hz[0] > 0
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
+    np.testing.assert_allclose(d.modal.damping_ratio, ZETA, rtol=1e-3)
+
+
+# ------------------------------------------------------------------------ bad input
+
+
+def test_truncated_lvm(tmp_path):
+    u, y = impact_record(n=400)
+    path = write_lvm(tmp_path / "cut.lvm", ["Acceleration", "Force"], ["m/s^2", "N"],
+                     np.vstack([y, u]), 1 / 2000.0, samples=500)
+    with pytest.raises(DataFormatError, match=r"cut\.lvm: truncated data: 'Samples'"):
+        identify_file(path)
+
+
+def test_corrupt_uff(uff_frf_file, tmp_path):
+    cut = tmp_path / "cut.uff"
+    cut.write_bytes(uff_frf_file.read_bytes()[:-300])
+    with pytest.raises(DataFormatError, match=r"cut\.uff: truncated or corrupt UFF file"):
+        identify_file(cut)
+
+
+def test_lvm_without_input_channel(tmp_path):
+    y = np.random.default_rng(0).standard_normal((2, 100))
+    path = write_lvm(tmp_path / "noin.lvm", ["acc1", "acc2"], ["m/s^2", "g"], y, 1e-3)
+    with pytest.raises(DataFormatError, match=r"noin\.lvm: no input channel .* expected a "
+                                              r"force channel"):
+        identify_file(path)
+
+
+def test_lvm_without_output_channel(tmp_path):
+    u, _ = impact_record(n=400)
+    path = write_lvm(tmp_path / "onlyf.lvm", ["Force"], ["N"], u[None], 1e-3)
+    with pytest.raises(DataFormatError, match=r"onlyf\.lvm: only input channel\(s\) "
+                                              r"\['Force'\]; expected at least one response"):
+        identify_file(path)
+
+
+def test_lvm_output_of_unknown_quantity(tmp_path):
+    u, y = impact_record(n=400)
+    path = write_lvm(tmp_path / "volt.lvm", ["Force", "Strain"], ["N", "V"],
+                     np.vstack([u, y]), 1e-3)
+    with pytest.raises(DataFormatError, match=r"output channel 'Strain' has unit 'V'"):
+        identify_file(path)
+
+
+def test_uff_time_without_input_channel(tmp_path):
+    y = np.random.default_rng(0).standard_normal((2, 64))
+    path = write_uff58_time(tmp_path / "noin.uff", y, 0.01, resp_nodes=[1, 2],
+                            resp_dirs=[3, 3], quantities=["acceleration"] * 2,
+                            resp_names=["acc1", "acc2"])
+    with pytest.raises(DataFormatError, match=r"noin\.uff: no input channel among the time "
+                                              r"sets \['acc1', 'acc2'\]"):
+        identify_file(path)
+
+
+def test_band_outside_the_data(uff_frf_file):
+    with pytest.raises(ValueError, match=r"frf\.uff: band 300-400 Hz lies outside the data "
+                                         r"of 'frf', which spans 0\.25-200 Hz"):
+        identify_file(uff_frf_file, band_hz=(300, 400))
+    with pytest.raises(ValueError, match=r"band 10-10\.5 Hz holds 3 frequency lines"):
+        identify_file(uff_frf_file, band_hz=(10, 10.5))
+    with pytest.raises(ValueError, match=r"band must satisfy 0 <= low < high"):
+        identify_file(uff_frf_file, band_hz=(50, 20))
+
+
+def test_other_bad_input(tmp_path, uff_frf_file):
+    with pytest.raises(FileNotFoundError, match="nothere.lvm: no such data file"):
+        identify_file(tmp_path / "nothere.lvm")
+    other = tmp_path / "data.txt"
+    other.write_text("1 2 3\n")
+    with pytest.raises(DataFormatError, match=r"data\.txt: unknown file extension '\.txt'"):
+        identify_file(other)
+    not_results = tmp_path / "x.h5"
+    with h5py.File(not_results, "w") as h:
+        h.attrs["format"] = "something else"
+    with pytest.raises(DataFormatError, match=r"x\.h5: not a truthbench results file"):
+        identify_file(not_results)
+    with pytest.raises(ValueError, match=r"must be one of \['peak', 'plscf'\]"):
+        identify_file(uff_frf_file, method="circle")
+    with pytest.raises(ValueError, match="max_order must be an integer >= 2"):
+        identify_file(uff_frf_file, max_order=1)
+
+
+def test_time_records_of_different_lengths_and_forced_impact():
+    with pytest.raises(DataFormatError, match=r"rec: input and output records differ in "
+                                              r"length \(10 and 12 samples\)"):
+        frfs_from_time(np.zeros(10), np.zeros(12), 100.0, frf_type="acceleration",
+                       name="rec")
+    rng = np.random.default_rng(0)
+    with pytest.raises(DataFormatError, match=r"excitation='impact' but input 'in0' holds no "
+                                              r"short pulse"):
+        frfs_from_time(rng.standard_normal(256), rng.standard_normal(256), 100.0,
+                       frf_type="acceleration", excitation="impact")
+    with pytest.raises(ValueError, match="excitation must be one of"):
+        frfs_from_time(np.zeros(10), np.zeros(10), 100.0, frf_type="acceleration",
+                       excitation="hammer")
+
+
+def test_uff_receptance_file(tmp_path):
+    f = np.arange(1, 801) * 0.25
+    path = write_uff58_frf(tmp_path / "r.uff", f, modal_frf(f, q=0), resp_nodes=[1, 2, 3],
+                           resp_dirs=[3, 3, 3], ref_nodes=[1], ref_dirs=[3],
+                           frf_type="receptance")
+    d = identify_file(path, max_order=20).datasets[0]
+    assert d.data.frf_type == "displacement"
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        identify_file(path, max_order=20)  # a known type: no warning
