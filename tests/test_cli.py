@@ -63,3 +63,33 @@ def test_help_is_fast_and_lazy():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()
     assert out[1:] == ["False", "False"]  # no heavy import behind --help
+
+
+def test_simulate_with_injected_effects(tmp_path, capsys):
+    from truthbench.campaign.store import read_results
+
+    camp = _small_campaign(tmp_path)
+    out = tmp_path / "one.h5"
+    assert main(["simulate", str(camp), "--test", "1", "--out", str(out), "--inject",
+                 "time_delay:delay_s=0.002", "--inject",
+                 "joint:station=mid,stiffness_loss=0.2"]) == 0
+    assert "effect.time_delay.delay_s = 0.002" in capsys.readouterr().out
+    data = read_results(out)
+    t = data["tests"]["shaker_quarter"]
+    params = t["parameters"]["attrs"]
+    assert params["effect.joint.station"] == "mid"
+    assert params["effect.joint.stiffness_loss"] == 0.2
+    assert t["y"].shape == (4, 4096) and t["H"].shape[1:] == (4, 1)
+    assert json.loads(data["attrs"]["injected"]) == ["time_delay:delay_s=0.002",
+                                                    "joint:station=mid,stiffness_loss=0.2"]
+
+
+def test_simulate_bad_input(tmp_path, capsys):
+    camp = _small_campaign(tmp_path)
+    out = str(tmp_path / "x.h5")
+    assert main(["simulate", str(camp), "--out", out, "--inject", "time_delay:delta=2"]) == 2
+    assert "no parameter 'delta'" in capsys.readouterr().err
+    assert main(["simulate", str(camp), "--out", out, "--inject", "gremlin:x=1"]) == 2
+    assert "unknown effect 'gremlin'" in capsys.readouterr().err
+    assert main(["simulate", str(camp), "--out", out, "--test", "5"]) == 2
+    assert "test index 5 does not exist" in capsys.readouterr().err

@@ -23,6 +23,14 @@ SHIPPED_LVM = Path(str(importlib.resources.files("truthbench").joinpath(
     "data/ladisk_beam_impact/acceleration.lvm")))
 
 
+@pytest.fixture(autouse=True)
+def _private_io_registry(monkeypatch):
+    """identify_file registers the .h5 reader; keep that out of the other tests."""
+    import truthbench.io.registry as registry
+
+    monkeypatch.setattr(registry, "_READERS", dict(registry._READERS))
+
+
 def run(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="truthbench")
     register(parser.add_subparsers(dest="command", required=True))

@@ -12,10 +12,10 @@ Supported files (chosen by extension through :func:`truthbench.io.load_data`):
     trial holds its estimated H1 FRF ``H`` (n_freq, n_out, n_in) and ``freq_hz``. The
     FRF type follows the output labels (``.acc``, ``.vel``, ``.dis``, ``.str``; strain
     is displacement-type); the default band is the test's excited ``band_hz`` from the
-    stored campaign spec. This module registers :func:`read_results_frfs` as the
-    ``.h5``/``.hdf5`` reader of :func:`truthbench.io.load_data` unless another room has
-    registered one already (then its :func:`~truthbench.campaign.store.read_results`
-    dictionary is accepted too).
+    stored campaign spec. :func:`register_hdf5_reader` (called by :func:`load_frfs`)
+    registers :func:`read_results_frfs` as the ``.h5``/``.hdf5`` reader of
+    :func:`truthbench.io.load_data` unless another room has registered one already (then
+    its :func:`~truthbench.campaign.store.read_results` dictionary is accepted too).
 ``.uff`` / ``.unv``
     UFF dataset 58. FRF sets (function type 4) are used directly (type from the
     ordinate/denominator data types). Time sets (function type 1) become H1 FRFs: the
@@ -74,6 +74,7 @@ __all__ = [
     "identify_frfs",
     "load_frfs",
     "read_results_frfs",
+    "register_hdf5_reader",
 ]
 
 #: Free-free Euler-Bernoulli frequency ratios of bending modes 2 and 3 to mode 1,
@@ -404,15 +405,19 @@ def read_results_frfs(path: str | PathLike) -> tuple[FRFData, ...]:
     return _frfs_from_results_dict(p, read_results(p))
 
 
-def _register_h5_reader() -> None:
+def register_hdf5_reader() -> None:
+    """Register :func:`read_results_frfs` for ``.h5`` and ``.hdf5`` in :mod:`truthbench.io`.
+
+    Idempotent; an extension that already has a reader (e.g. the campaign room's
+    :func:`~truthbench.campaign.store.read_results`) is left alone, and
+    :func:`load_frfs` accepts what that reader returns too. :func:`load_frfs` calls this
+    before reading, so importing this module changes no global state.
+    """
     from truthbench.io import register_reader, registered_extensions
 
     for ext in (".h5", ".hdf5"):
         if ext not in registered_extensions():
             register_reader(ext, read_results_frfs)
-
-
-_register_h5_reader()
 
 
 def _to_displacement(f: np.ndarray, H: np.ndarray, kinds: Sequence[str]):
@@ -860,6 +865,7 @@ def load_frfs(path: str | PathLike, **options) -> tuple[str, tuple[FRFData, ...]
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"{p}: no such data file")
+    register_hdf5_reader()
     loaded = load_data(p)
     fmt = _FORMATS.get(p.suffix.lower(), p.suffix.lower().lstrip("."))
     if isinstance(loaded, UFFData):

@@ -220,8 +220,7 @@ def truth_record(setup) -> dict:
     out["truth.timoshenko"] = float(setup.plant.timoshenko)
     for label, values in setup.effects.items():
         for k, v in values.items():
-            if isinstance(v, int | float) and not isinstance(v, bool):
-                out[f"effect.{label}.{k}"] = float(v)
+            out[f"effect.{label}.{k}"] = v if isinstance(v, str) else float(v)
     return out
 
 
@@ -281,6 +280,24 @@ def update_trial(spec: CampaignSpec, records):
         predict, data, nominal, u.parameters, n_pairs=n_pairs,
         weights=_weights(spec, records, masks), max_iterations=u.max_iterations,
         tolerance=u.tolerance, relative_step=u.relative_step, scheme=u.scheme), masks
+
+
+def simulate_one(spec: CampaignSpec, trial: int, j: int, seed: int | None = None,
+                 extra_effects=()) -> TestRecord:
+    """Simulate and measure one test of one trial; ``extra_effects``
+    (:class:`~truthbench.effects.EffectSpec`) are injected beside the campaign's own."""
+    from truthbench.campaign.truth import build_test_setup
+    from truthbench.errors import CampaignError
+
+    if not 0 <= j < len(spec.tests):
+        raise CampaignError(f"{spec.source}: test index {j} does not exist; expected "
+                            f"0..{len(spec.tests) - 1} ({len(spec.tests)} tests)")
+    if trial < 0:
+        raise CampaignError(f"trial must be >= 0; got {trial}")
+    seed = spec.campaign.seed if seed is None else seed
+    setup = build_test_setup(spec, trial, j, seed, extra_effects)
+    u, y = simulate_test(spec, j, setup, excitation_rng(seed, trial, j))
+    return measure_test(spec, j, u, y, truth_record(setup))
 
 
 def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:

@@ -88,6 +88,34 @@ def write_results(result, path: str | Path) -> Path:
     return path
 
 
+def write_test_record(record, path: str | Path, *, spec, seed: int, trial: int,
+                      injected=()) -> Path:
+    """Write one test (time histories, FRFs, truth record) to HDF5, in the layout of a
+    test group of a results file, with the campaign spec and what was injected."""
+    import h5py
+
+    from truthbench import __version__
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with h5py.File(path, "w") as f:
+        _attrs(f, {"format": FORMAT + "/test", "truthbench_version": __version__,
+                   "seed": seed, "trial": trial, "campaign": spec.campaign.name,
+                   "spec_json": json.dumps(spec.to_toml_dict()), "source": spec.source,
+                   "injected": json.dumps(list(injected)),
+                   "created_utc": datetime.now(UTC).isoformat(timespec="seconds")})
+        t = f.create_group(f"tests/{record.name}")
+        for name in ("freq_hz", "H", "coherence"):
+            t.create_dataset(name, data=getattr(record, name))
+        for name in ("u", "y"):
+            t.create_dataset(name, data=getattr(record, name), compression="gzip",
+                             compression_opts=4, shuffle=True)
+        _attrs(t, {"fs_hz": record.fs_hz, "input_labels": list(record.input_labels),
+                   "output_labels": list(record.output_labels)})
+        _attrs(t.create_group("parameters"), record.parameters)
+    return path
+
+
 def _read_group(g) -> dict:
     out = {"attrs": {k: _plain(v) for k, v in g.attrs.items()}}
     for k, v in g.items():
@@ -121,12 +149,14 @@ def read_results(path: str | Path) -> dict:
     try:
         with h5py.File(path, "r") as f:
             fmt = f.attrs.get("format")
-            if _plain(fmt) != FORMAT:
+            if not str(_plain(fmt)).startswith(FORMAT):
                 raise DataFormatError(f"{path}: not a truthbench results file (attribute "
                                       f"'format' is {_plain(fmt)!r}; expected {FORMAT!r})")
             data = _read_group(f)
     except OSError as exc:
         raise DataFormatError(f"{path}: cannot be read as HDF5 ({exc})") from None
     data["attrs"]["spec"] = json.loads(data["attrs"]["spec_json"])
+    if "trials" not in data and "tests" in data:  # a single-test file from 'simulate'
+        data["attrs"]["single_test"] = True
     data["path"] = str(path)
     return data
