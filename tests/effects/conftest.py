@@ -20,3 +20,14 @@ def base():
     d["tests"][1]["actuators"] = [{"station": "end_b", "direction": "z"}]
     d["update"]["method"] = "none"
     return d
+
+
+@pytest.fixture
+def hub_base():
+    d = tomllib.loads((ROOT / "campaigns" / "hub_beam.toml").read_text())
+    d["plant"]["n_elements"] = 8
+    d["truth"]["relative"] = {}
+    for t in d["tests"]:
+        t.update(record_s=16.0, averages=1, window="rectangular", noise_fraction=0.0)
+    d["update"]["method"] = "none"
+    return d

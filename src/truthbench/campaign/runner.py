@@ -141,6 +141,14 @@ def warm_up_samples(A: np.ndarray, segment: int, fs_hz: float, n: int,
     return int(min(max(segment, np.ceil(t * fs_hz / 1.0)), 4 * n))
 
 
+def _check_loop(loop, n_out: int, n_act: int) -> None:
+    from truthbench.errors import ModelError
+
+    if not (0 <= loop.output < n_out and 0 <= loop.input < n_act):
+        raise ModelError(f"closed_loop: output {loop.output} / input {loop.input} outside "
+                         f"the test's {n_out} sensors / {n_act} actuators")
+
+
 def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
     """Simulate test ``j`` on the hardware described by ``setup``
     (:class:`~truthbench.effects.TestSetup`).
@@ -181,10 +189,21 @@ def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
         excited = np.any(np.abs(F) > 1e-12 * np.abs(F).max(), axis=0) & (f > 0)
         Y = np.zeros((len(sens), len(f)), dtype=complex)
         H = model.frf(f[excited], modes=modes)  # (n_exc, n_out, n_in)
+        for loop in setup.loops:
+            _check_loop(loop, len(sens), n_act)
+            H = loop.close(H, f[excited])
         Y[:, excited] = np.einsum("foi,if->of", H, F[:, excited])
         y_fine = np.fft.irfft(Y, n, axis=1)
     else:
         A, B, C, D = modal_system(model, modes)
+        if setup.loops:
+            import control
+
+            sys_ = control.ss(A, B, C, D)
+            for loop in setup.loops:
+                _check_loop(loop, len(sens), n_act)
+                sys_ = control.feedback(sys_, loop.statespace(len(sens), B.shape[1]))
+            A, B, C, D = (np.asarray(m) for m in (sys_.A, sys_.B, sys_.C, sys_.D))
         drive = np.fft.irfft(F / np.sinc(f / fine_fs) ** 2, n * R, axis=1)
         warm = warm_up_samples(A, n // test.averages, fine_fs, n) * R
         reps = -(-warm // (n * R))  # whole periods of the periodic drive before the record

@@ -49,6 +49,8 @@ class TestSetup:
         Unmeasured band-limited random forces (process noise), N or N m RMS.
     nonlinear : tuple
         Nonlinear elements (station, direction, element).
+    loops : tuple of Loop
+        Feedback loops closed around the plant (:mod:`truthbench.effects.loop`).
     effects : dict
         Realised parameter values of every effect, by effect label.
     """
@@ -66,6 +68,7 @@ class TestSetup:
     bias_gain: float = 1.0
     disturbances: tuple[tuple[str, str, float], ...] = ()
     nonlinear: tuple = ()
+    loops: tuple = ()
     effects: dict = field(default_factory=dict)
 
 
@@ -88,6 +91,7 @@ class SetupBuilder:
     bias_gain: float = 1.0
     disturbances: list = field(default_factory=list)
     nonlinear: list = field(default_factory=list)
+    loops: list = field(default_factory=list)
     effects: dict = field(default_factory=dict)
 
     def scale_parameter(self, name: str, factor: float) -> None:
@@ -110,7 +114,7 @@ class SetupBuilder:
             delay_s=self.delay_s, noise_fraction=self.noise_fraction,
             bias_offset=self.bias_offset, bias_gain=self.bias_gain,
             disturbances=tuple(self.disturbances), nonlinear=tuple(self.nonlinear),
-            effects=dict(self.effects))
+            loops=tuple(self.loops), effects=dict(self.effects))
 
 
 def as_array(x) -> np.ndarray:
