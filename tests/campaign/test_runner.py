@@ -90,3 +90,15 @@ def test_time_path_agrees_with_periodic_steady_state(small_dict):
     exact = setup.plant.build(setup.parameters, *_io(spec, 0), setup.additions).frf(
         hp.freq_hz[band])
     assert (np.abs(hp.H[band] - exact) / np.abs(exact).max(axis=0)).max() < 1e-12
+
+
+def test_trial_truth_includes_hardware_effects(small_dict):
+    """A hardware-scope material draw changes the truth the update is scored against."""
+    small_dict["truth"]["effects"] = [{"name": "material", "parameters": {
+        "E_rel": {"mean": 0.0, "std": 0.02}}}]
+    small_dict["update"]["method"] = "none"
+    spec = parse_campaign(small_dict)
+    trial = run_campaign(spec).trials[0]
+    realised = trial.tests[0].parameters["E_pa"]
+    assert realised != spec.truth_parameters()["E_pa"]
+    assert trial.truth["E_pa"] == realised == trial.tests[1].parameters["E_pa"]

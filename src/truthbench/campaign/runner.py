@@ -243,6 +243,20 @@ def truth_record(setup) -> dict:
     return out
 
 
+def hardware_truth(spec: CampaignSpec, records) -> dict:
+    """The trial's truth for scoring an update: every plant parameter averaged over the
+    tests (equal to each test's value unless an effect varies it per test, assembly or
+    time)."""
+    out = {}
+    for key in spec.nominal_parameters():
+        values = [rec.parameters[key] for rec in records if key in rec.parameters]
+        if values:
+            out[key] = float(np.mean(values))
+    for key in (k for k in records[0].parameters if "@" in k):  # group-qualified values
+        out[key] = float(np.mean([rec.parameters.get(key, np.nan) for rec in records]))
+    return out
+
+
 def update_masks(spec: CampaignSpec, records) -> list[np.ndarray]:
     """Frequency lines of each test used in the update: inside the test's excitation
     band and the update band, and above 0 Hz."""
@@ -330,6 +344,7 @@ def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
             setup = build_test_setup(spec, trial, j, seed)
             u, y = simulate_test(spec, j, setup, excitation_rng(seed, trial, j))
             records.append(measure_test(spec, j, u, y, truth_record(setup)))
+        truth = hardware_truth(spec, records)
         if spec.update.method == "none":
             return TrialResult(trial, tuple(records), truth)
         result, masks = update_trial(spec, records)
