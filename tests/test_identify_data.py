@@ -246,11 +246,19 @@ def test_correct_exponential_window_moves_poles_exactly():
         correct_exponential_window(modal, 5.0)
 
 
-def write_results_h5(path, outputs, H, f, band=(5.0, 100.0)):
+def write_results_h5(path, outputs, H, f, band=(5.0, 100.0), single_test_of_trial=None):
+    """The layout of campaign.store: a results file, or (single_test_of_trial=k) the
+    single-test file of 'truthbench simulate'."""
+    from truthbench.campaign.store import FORMAT
+
     with h5py.File(path, "w") as h:
-        h.attrs["format"] = "truthbench-results-1"
+        h.attrs["format"] = FORMAT if single_test_of_trial is None else FORMAT + "/test"
         h.attrs["spec_json"] = json.dumps({"tests": [{"name": "t1", "band_hz": list(band)}]})
-        t = h.create_group("trials/0000/tests/t1")
+        if single_test_of_trial is None:
+            t = h.create_group("trials/0000/tests/t1")
+        else:
+            h.attrs["trial"] = single_test_of_trial
+            t = h.create_group("tests/t1")
         t.create_dataset("freq_hz", data=f)
         t.create_dataset("H", data=H)
         t.attrs["output_labels"] = outputs
@@ -263,6 +271,7 @@ def test_results_file_uses_the_stored_band(tmp_path):
     f = np.arange(0, 1025) * 0.125  # 0 .. 128 Hz
     H = modal_frf(f)[:, :2]
     H[f > 100] = 1e6 * (1 + 1j)  # junk outside the excited band must not be used
+    H[-5:] = np.nan  # H1 is NaN where the input spectrum is singular (outside the band)
     path = write_results_h5(tmp_path / "r.h5", ["a.z.acc", "b.z.acc"], H, f)
     assert ".h5" not in registered_extensions()  # importing the module registers nothing
     fmt, frfs = load_frfs(path)
@@ -273,6 +282,26 @@ def test_results_file_uses_the_stored_band(tmp_path):
     assert d.band_hz == (5.0, 100.0)
     np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
     np.testing.assert_allclose(d.modal.damping_ratio, ZETA, rtol=1e-3)
+
+
+def test_single_test_file_of_truthbench_simulate(tmp_path):
+    f = np.arange(0, 1025) * 0.125
+    path = write_results_h5(tmp_path / "one.h5", ["a.z.acc", "b.z.acc"], modal_frf(f)[:, :2],
+                            f, single_test_of_trial=2)
+    d = identify_file(path, max_order=20).datasets[0]
+    assert d.data.name == "trial 2 / t1" and d.band_hz == (5.0, 100.0)
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
+
+
+def test_non_finite_lines_in_the_band_are_left_out_with_a_warning(tmp_path):
+    f = np.arange(0, 1025) * 0.125
+    H = modal_frf(f)[:, :2]
+    H[400:403] = np.nan  # 50.0 .. 50.25 Hz
+    path = write_results_h5(tmp_path / "nan.h5", ["a.z.acc", "b.z.acc"], H, f)
+    with pytest.warns(UserWarning, match=r"nan\.h5: 3 line\(s\) of 'trial 0 / t1' in the "
+                                         r"band 5-100 Hz hold non-finite FRF values"):
+        d = identify_file(path, max_order=20).datasets[0]
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
 
 
 def test_results_file_through_the_campaign_reader(tmp_path):

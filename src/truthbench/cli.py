@@ -128,6 +128,10 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--count", type=int, default=20, help="number of modes (default 20)")
     m.add_argument("--json", action="store_true", help="print JSON instead of a table")
     m.set_defaults(func=_cmd_modes)
+
+    from truthbench.cli_extra import register  # study and identify commands (argparse only)
+
+    register(sub)
     return p
 
 

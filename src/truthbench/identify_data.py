@@ -9,7 +9,8 @@ Supported files (chosen by extension through :func:`truthbench.io.load_data`):
 
 ``.h5`` / ``.hdf5``
     truthbench results files (:mod:`truthbench.campaign.store`): every test of every
-    trial holds its estimated H1 FRF ``H`` (n_freq, n_out, n_in) and ``freq_hz``. The
+    trial holds its estimated H1 FRF ``H`` (n_freq, n_out, n_in) and ``freq_hz``
+    (single-test files written by ``truthbench simulate`` likewise). The
     FRF type follows the output labels (``.acc``, ``.vel``, ``.dis``, ``.str``; strain
     is displacement-type); the default band is the test's excited ``band_hz`` from the
     stored campaign spec. :func:`register_hdf5_reader` (called by :func:`load_frfs`)
@@ -336,11 +337,13 @@ def _quantity_from_labels(path: Path, test: str, labels: Sequence[str]) -> str:
 def _frfs_from_results_dict(path: Path, data: Mapping) -> tuple[FRFData, ...]:
     """FRFData of every stored test from a :func:`read_results` dictionary."""
     spec = data.get("attrs", {}).get("spec", {})
+    if "trials" in data:
+        groups = [(int(k), g.get("tests", {})) for k, g in sorted(data["trials"].items())
+                  if k != "attrs"]
+    else:  # a single-test file written by 'truthbench simulate'
+        groups = [(int(data.get("attrs", {}).get("trial", 0)), data.get("tests", {}))]
     out = []
-    for trial, group in sorted(data.get("trials", {}).items()):
-        if trial == "attrs":
-            continue
-        tests = group.get("tests", {})
+    for trial, tests in groups:
         for test, t in tests.items():
             if test == "attrs" or "H" not in t or "freq_hz" not in t:
                 continue
@@ -362,7 +365,7 @@ def _frfs_from_results_dict(path: Path, data: Mapping) -> tuple[FRFData, ...]:
                 notes.append("mixed output quantities: converted to displacement-"
                              "equivalent FRFs (divided by (j w)^q), 0 Hz line dropped")
             out.append(FRFData(
-                name=f"trial {int(trial)} / {test}",
+                name=f"trial {trial} / {test}",
                 freq_hz=f,
                 H=H,
                 frf_type=kind,
@@ -375,7 +378,7 @@ def _frfs_from_results_dict(path: Path, data: Mapping) -> tuple[FRFData, ...]:
     if not out:
         raise DataFormatError(
             f"{path}: the results file holds no test with stored FRFs (trials/*/tests/*/H "
-            f"and freq_hz); expected at least one"
+            f"or tests/*/H, and freq_hz); expected at least one"
         )
     return tuple(out)
 
@@ -814,7 +817,24 @@ def identify_frfs(
     identifier = get_identifier(method)
     band = _resolve_band(data, band_hz, source or data.name)
     f, H = data.freq_hz, data.H
-    keep = f > 0  # the residual terms of velocity/displacement FRFs diverge at 0 Hz
+    # the band's lines above 0 Hz (residual terms of velocity/displacement FRFs diverge
+    # at 0 Hz) with finite values (H1 is NaN where the input spectrum is singular)
+    keep = (f > 0) & (f >= band[0]) & (f <= band[1])
+    finite = np.isfinite(H).reshape(f.size, -1).all(axis=1)
+    if np.any(keep & ~finite):
+        warnings.warn(
+            f"{source or data.name}: {int(np.count_nonzero(keep & ~finite))} line(s) of "
+            f"{data.name!r} in the band {band[0]:g}-{band[1]:g} Hz hold non-finite FRF "
+            f"values (e.g. a singular input spectrum); they are left out",
+            stacklevel=2,
+        )
+    keep &= finite
+    if np.count_nonzero(keep) < MIN_BAND_LINES:
+        raise ValueError(
+            f"{source or data.name}: band {band[0]:g}-{band[1]:g} Hz holds "
+            f"{int(np.count_nonzero(keep))} usable (finite, above 0 Hz) lines of "
+            f"{data.name!r}; expected at least {MIN_BAND_LINES}"
+        )
     raw = identifier(f[keep], H[keep], frf_type=data.frf_type, freq_range_hz=band,
                      **_METHOD_OPTIONS[method](max_order, n_modes))
     order = np.argsort(raw.freq_hz)
@@ -872,7 +892,8 @@ def load_frfs(path: str | PathLike, **options) -> tuple[str, tuple[FRFData, ...]
         return fmt, _frfs_from_uff(p, loaded, **options)
     if isinstance(loaded, TimeRecord):
         return fmt, _frfs_from_lvm(p, loaded, **options)
-    if isinstance(loaded, Mapping) and "trials" in loaded:  # campaign's read_results
+    if isinstance(loaded, Mapping) and ("trials" in loaded or "tests" in loaded):
+        # what the campaign room's read_results returns
         return fmt, _frfs_from_results_dict(p, loaded)
     if isinstance(loaded, tuple) and all(isinstance(d, FRFData) for d in loaded):
         return fmt, loaded
