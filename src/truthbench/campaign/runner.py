@@ -65,6 +65,8 @@ class TestRecord:
     parameters: dict
     input_labels: tuple[str, ...]
     output_labels: tuple[str, ...]
+    modes: object | None = None
+    """Identified modes (:class:`~truthbench.identify.ModalParameters`), or None."""
 
 
 @dataclass(frozen=True)
@@ -226,8 +228,17 @@ def measure_test(spec: CampaignSpec, j: int, u, y, params: dict) -> TestRecord:
     est = estimate_frf(u, y, test.fs_hz, estimator="H1", window=test.window,
                        n_averages=test.averages)
     acts, sens = _io(spec, j)
-    return TestRecord(test.name, est.freq_hz, est.H, est.coherence, u, y, test.fs_hz,
-                      dict(params), tuple(a.label for a in acts), tuple(s.label for s in sens))
+    record = TestRecord(test.name, est.freq_hz, est.H, est.coherence, u, y, test.fs_hz,
+                        dict(params), tuple(a.label for a in acts),
+                        tuple(s.label for s in sens))
+    if spec.identify.enabled:
+        from dataclasses import replace
+
+        from truthbench.campaign.identification import identify_test
+
+        record = replace(record, modes=identify_test(spec, j, record,
+                                                     max_order=spec.identify.max_order))
+    return record
 
 
 def truth_record(setup) -> dict:

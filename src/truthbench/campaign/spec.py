@@ -100,6 +100,13 @@ class TestSpec(_Strict):
         return v
 
 
+class IdentifySpec(_Strict):
+    """Modal identification of every test (pLSCF over the test's band)."""
+
+    enabled: bool = True
+    max_order: Annotated[int, Field(ge=2, le=200)] = 40
+
+
 class UpdateSpec(_Strict):
     method: Literal["finite_difference", "none"] = "finite_difference"
     parameters: list[str] = Field(default_factory=list)
@@ -119,6 +126,7 @@ class CampaignSpec(_Strict):
     sensors: Annotated[list[SensorSpec], Field(min_length=1)]
     truth: TruthSpec = Field(default_factory=TruthSpec)
     tests: Annotated[list[TestSpec], Field(min_length=1)]
+    identify: IdentifySpec = Field(default_factory=IdentifySpec)
     update: UpdateSpec = Field(default_factory=UpdateSpec)
     source: str = "<memory>"
 

@@ -10,6 +10,7 @@ Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
         tests/<name>       datasets freq_hz, H, coherence, u, y;
                            attrs fs_hz, input_labels, output_labels
         tests/<name>/parameters   attrs: the exact truth parameters of this test
+        tests/<name>/identified   datasets freq_hz, damping_ratio, shapes (pLSCF)
         update             datasets names, initial, values, history, cost_history,
                            singular_values, correlation; attrs converged, method,
                            condition_number
@@ -69,6 +70,7 @@ def write_results(result, path: str | Path) -> Path:
                 _attrs(t, {"fs_hz": rec.fs_hz, "input_labels": list(rec.input_labels),
                            "output_labels": list(rec.output_labels)})
                 _attrs(t.create_group("parameters"), rec.parameters)
+                _write_modes(t, rec.modes)
             if tr.update is not None:
                 u = g.create_group("update")
                 u.create_dataset("names", data=np.array(tr.update.names, dtype="S"))
@@ -113,7 +115,19 @@ def write_test_record(record, path: str | Path, *, spec, seed: int, trial: int,
         _attrs(t, {"fs_hz": record.fs_hz, "input_labels": list(record.input_labels),
                    "output_labels": list(record.output_labels)})
         _attrs(t.create_group("parameters"), record.parameters)
+        _write_modes(t, record.modes)
     return path
+
+
+def _write_modes(group, modes) -> None:
+    """Identified modes of a test under ``identified/`` (freq_hz, damping_ratio, shapes
+    (n_out, n_modes) complex, displacement-equivalent)."""
+    if modes is None:
+        return
+    g = group.create_group("identified")
+    g.create_dataset("freq_hz", data=np.asarray(modes.freq_hz))
+    g.create_dataset("damping_ratio", data=np.asarray(modes.damping_ratio))
+    g.create_dataset("shapes", data=np.asarray(modes.shapes))
 
 
 def _read_group(g) -> dict:
