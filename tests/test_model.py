@@ -124,3 +124,20 @@ def test_model_validation_errors():
         StructuralModel(M, M, M, np.zeros((3, 1)), np.zeros((1, 3)), ("jerk",))
     with pytest.raises(ModelError, match="n_modes"):
         solve_modes(M, M, 7)
+
+
+def test_modal_table_damping_equals_python_control_damp():
+    """With the hub dashpot (non-proportional damping, a real pole from the rigid mode),
+    the table's damping ratios are the complex poles' (python-control ``damp``)."""
+    from truthbench.model import modal_table
+
+    model = _hub_model(hub_damping_n_m_s_rad=10.0)
+    md = model.modes(30)
+    rows = modal_table(model, md)
+    wn, zeta, poles = control.damp(model.state_space(modes=md), doprint=False)
+    osc = poles.imag > 1e-9
+    ref = np.sort(zeta[osc])
+    ours = np.sort([r["damping_ratio"] for r in rows if r["damping_ratio"] == r["damping_ratio"]])
+    np.testing.assert_allclose(ours, ref, rtol=1e-8)
+    first = next(r for r in rows if r["shape"].startswith("bending y"))
+    assert 0.003 < first["damping_ratio"] < 0.05  # the hub damper acts on mode 1

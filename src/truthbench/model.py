@@ -329,8 +329,9 @@ def modal_table(model: StructuralModel, modes: Modes) -> list[dict]:
     """Frequency, damping ratio and a short shape description of every mode.
 
     Damping ratios come from the complex poles of the modal first-order form (so they
-    include non-proportional physical damping), paired to the real modes in order of
-    frequency. The description names the dominant motion by kinetic-energy share
+    include non-proportional physical damping), paired to the elastic real modes by an
+    assignment on frequency distance (real poles, e.g. a rigid mode with a dashpot, are
+    left out). The description names the dominant motion by kinetic-energy share
     (axial, bending y, bending z, torsion) and counts the sign changes of the dominant
     translation along the structure (nodes).
     """
@@ -343,14 +344,18 @@ def modal_table(model: StructuralModel, modes: Modes) -> list[dict]:
     else:
         A = np.block([[np.zeros((m, m)), np.eye(m)], [-np.diag(omega**2), -Xi]])
         lam = sla.eigvals(A)
-        lam = lam[lam.imag >= 0]
-        lam = lam[np.argsort(np.abs(lam))]
-        # pair: one pole (imag >= 0) per real mode, by frequency order; overdamped or
-        # rigid modes give real poles
-        lam = lam[:m] if len(lam) >= m else np.pad(lam, (0, m - len(lam)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            zeta = np.where(np.abs(lam) > 0, -lam.real / np.abs(lam), np.nan)
-        zeta = np.where(modes.rigid, np.nan, zeta)
+        # oscillatory poles (upper half plane) paired to the elastic modes by an
+        # assignment on frequency distance; rigid modes (real poles 0 and -c/J from a
+        # dashpot) get NaN
+        osc = lam[lam.imag > 1e-9 * np.abs(lam).max()]
+        elastic = np.flatnonzero(~modes.rigid)
+        zeta = np.full(m, np.nan)
+        if osc.size and elastic.size:
+            from scipy.optimize import linear_sum_assignment
+
+            cost = np.abs(np.abs(osc)[None, :] - omega[elastic, None]) / omega[elastic, None]
+            rows, cols = linear_sum_assignment(cost)
+            zeta[elastic[rows]] = -osc[cols].real / np.abs(osc[cols])
     dirs = np.array([lab.rsplit(".", 1)[-1] if "." in lab else "" for lab in model.dof_labels])
     Mdiag = model.M.diagonal()
     names = {"x": "axial", "y": "bending y", "z": "bending z", "rx": "torsion"}

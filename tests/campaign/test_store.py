@@ -53,3 +53,15 @@ def test_corrupt_or_foreign_files(tmp_path):
         read_results(tmp_path / "other.h5")
     with pytest.raises(DataFormatError, match="not found"):
         read_results(tmp_path / "missing.h5")
+
+
+def test_accuracy_against_truth_is_stored_and_improves(small_dict, tmp_path):
+    for t in small_dict["tests"]:
+        t["noise_fraction"] = 0.0
+    result = run_campaign(parse_campaign(small_dict))
+    data = read_results(write_results(result, tmp_path / "r.h5"))
+    acc = data["trials"]["0000"]["accuracy"]
+    before = np.abs(acc["initial"]["freq_error_pct"])
+    after = np.abs(acc["updated"]["freq_error_pct"])
+    assert before.size and np.all(after < 0.1 * before)
+    assert np.all(acc["updated"]["mac"] > 0.99)

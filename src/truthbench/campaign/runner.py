@@ -83,6 +83,9 @@ class TrialResult:
     H_initial: tuple[np.ndarray, ...] = ()
     H_updated: tuple[np.ndarray, ...] = ()
     update_mask: tuple[np.ndarray, ...] = ()
+    accuracy: dict = field(default_factory=dict)
+    """``{"initial": ..., "updated": ...}``: modes against the truth
+    (:func:`~truthbench.campaign.metrics.modal_accuracy`)."""
     error: str | None = None
 
 
@@ -361,12 +364,17 @@ def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
         result, masks = update_trial(spec, records)
         nominal = spec.nominal_parameters()
         updated = {**nominal, **result.as_dict()}
+        from truthbench.campaign.metrics import modal_accuracy
+
+        hardware = build_test_setup(spec, trial, 0, seed)
+        accuracy = {"initial": modal_accuracy(spec, hardware, nominal),
+                    "updated": modal_accuracy(spec, hardware, updated)}
         full = [np.ones_like(rec.freq_hz, dtype=bool) for rec in records]
         full = [m & (rec.freq_hz > 0) for m, rec in zip(full, records, strict=True)]
         return TrialResult(
             trial, tuple(records), truth, result,
             tuple(model_frfs(spec, nominal, records, full)),
-            tuple(model_frfs(spec, updated, records, full)), tuple(masks))
+            tuple(model_frfs(spec, updated, records, full)), tuple(masks), accuracy)
     except Exception as exc:  # recorded per trial; the campaign goes on
         msg = f"{type(exc).__name__}: {exc}"
         if not isinstance(exc, ValueError | RuntimeError):

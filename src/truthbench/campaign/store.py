@@ -15,6 +15,8 @@ Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
                            singular_values, correlation; attrs converged, method,
                            condition_number
         model/<name>       datasets H_initial, H_updated, update_mask
+        accuracy/initial, accuracy/updated   modes against the truth at the sensors:
+                           truth_freq_hz, freq_error_pct, damping_error_pct, mac
 
 A failed trial is written with what it had computed, so nothing is lost.
 """
@@ -79,6 +81,10 @@ def write_results(result, path: str | Path) -> Path:
                     u.create_dataset(name, data=getattr(tr.update, name))
                 _attrs(u, {"converged": tr.update.converged, "method": tr.update.method,
                            "condition_number": tr.update.condition_number})
+                for stage, acc in tr.accuracy.items():
+                    a = g.create_group(f"accuracy/{stage}")
+                    for key, value in acc.items():
+                        a.create_dataset(key, data=value)
                 m = g.create_group("model")
                 for rec, hi, hu, mask in zip(tr.tests, tr.H_initial, tr.H_updated,
                                              tr.update_mask, strict=True):

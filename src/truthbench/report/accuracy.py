@@ -73,6 +73,38 @@ def frf_error_table(results: dict):
                          for r in rows.values()])
 
 
+def modal_accuracy_table(results: dict):
+    """Per truth mode (paired at the sensors): frequency error, damping error and MAC of
+    the initial and the updated model against the truth; mean over trials (and RMS of the
+    frequency error)."""
+    import pandas as pd
+
+    rows = {}
+    for _, t in _ok_trials(results):
+        acc = t.get("accuracy")
+        if not acc:
+            continue
+        for stage in ("initial", "updated"):
+            a = acc[stage]
+            for f, fe, de, mac in zip(a["truth_freq_hz"], a["freq_error_pct"],
+                                      a["damping_error_pct"], a["mac"], strict=True):
+                key = round(float(f), 1)
+                r = rows.setdefault(key, {"truth mode [Hz]": float(f)})
+                r.setdefault(f"{stage} freq err [%]", []).append(fe)
+                r.setdefault(f"{stage} damping err [%]", []).append(de)
+                r.setdefault(f"{stage} MAC", []).append(mac)
+    out = []
+    for key in sorted(rows):
+        r = rows[key]
+        row = {"truth mode [Hz]": r["truth mode [Hz]"]}
+        for stage in ("initial", "updated"):
+            for col in ("freq err [%]", "damping err [%]", "MAC"):
+                values = r.get(f"{stage} {col}", [np.nan])
+                row[f"{stage} {col}"] = float(np.mean(values))
+        out.append(row)
+    return pd.DataFrame(out)
+
+
 def plot_frfs(results: dict, path: Path, max_outputs: int = 3) -> Path | None:
     """Data against the initial and updated model FRFs (first trial, first input)."""
     import matplotlib
@@ -193,6 +225,13 @@ def write_report(results: dict, out_dir: str | Path) -> Path:
                   "contribute, so this is the method's accuracy on this campaign, not an "
                   "exact recovery).", ""]
 
+    acc = modal_accuracy_table(results)
+    if not acc.empty:
+        lines += ["## Modes of the initial and updated model against the truth", "",
+                  "Truth modes inside the update band that the sensors see, paired by MAC "
+                  "at the sensors (mean over trials).", ""]
+        lines.append(_md_table(acc))
+        lines.append("")
     lines += ["## FRF error over the update band", ""]
     lines.append(_md_table(frf_error_table(results)))
     if failed:
