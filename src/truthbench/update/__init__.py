@@ -1,4 +1,5 @@
-"""Model updating: parameterisations and updaters (finite-difference FRF method)."""
+"""Model updating: the finite-difference FRF method, sensitivity localization, and the
+registry of interchangeable updaters."""
 
 from truthbench.update.finite_difference import (
     UpdateResult,
@@ -6,6 +7,26 @@ from truthbench.update.finite_difference import (
     finite_difference_update,
     sensitivity_matrix,
 )
+from truthbench.update.macroelements import Macroelement, macroelement_matrices
+from truthbench.update.registry import (
+    UPDATERS,
+    FiniteDifferenceUpdater,
+    SensitivityUpdater,
+    Updater,
+    UpdateProblem,
+    get_updater,
+    register_updater,
+)
+from truthbench.update.sensitivity import (
+    MeasuredModes,
+    ModalPairs,
+    SensitivityResult,
+    eigen_sensitivities,
+    sensitivity_update,
+)
 
-__all__ = ["UpdateResult", "check_overdetermined", "finite_difference_update",
-           "sensitivity_matrix"]
+__all__ = ["UPDATERS", "FiniteDifferenceUpdater", "Macroelement", "MeasuredModes",
+           "ModalPairs", "SensitivityResult", "SensitivityUpdater", "UpdateProblem",
+           "UpdateResult", "Updater", "check_overdetermined", "eigen_sensitivities",
+           "finite_difference_update", "get_updater", "macroelement_matrices",
+           "register_updater", "sensitivity_matrix", "sensitivity_update"]
