@@ -12,8 +12,8 @@ from truthbench.update.registry import (
     UPDATERS,
     FiniteDifferenceUpdater,
     SensitivityUpdater,
-    Updater,
     UpdateProblem,
+    Updater,
     get_updater,
     register_updater,
 )
