@@ -14,7 +14,9 @@ import numpy as np
 from truthbench.plants import Sensor
 
 
-def _modal_at_sensors(model, sensors, band_hz, n_modes):
+def modes_at_sensors(model, sensors, band_hz, n_modes):
+    """Elastic modes of ``model`` inside ``band_hz`` that its output rows see, as
+    :class:`~truthbench.identify.ModalParameters` with shapes at the outputs."""
     from truthbench.identify import ModalParameters
     from truthbench.model import modal_table
 
@@ -31,6 +33,18 @@ def _modal_at_sensors(model, sensors, band_hz, n_modes):
                            output_labels=tuple(s.label for s in sensors))
 
 
+def displacement_sensors(sensors) -> list[Sensor]:
+    """The campaign's sensors read as displacements (strain gauges stay strain)."""
+    return [Sensor(s.station, s.direction, "strain" if s.quantity == "strain"
+                   else "displacement") for s in sensors]
+
+
+def analysis_band(spec) -> tuple[float, float]:
+    """The update band, or the span of the tests' excited bands."""
+    return tuple(spec.update.band_hz or (min(t.band_hz[0] for t in spec.tests),
+                                         max(t.band_hz[1] for t in spec.tests)))
+
+
 def modal_accuracy(spec, setup, params: dict, *, n_modes: int = 30) -> dict:
     """Frequency, damping and MAC errors of the model at ``params`` against the truth
     ``setup`` (:class:`~truthbench.effects.TestSetup`), over the update band.
@@ -43,14 +57,12 @@ def modal_accuracy(spec, setup, params: dict, *, n_modes: int = 30) -> dict:
     """
     from truthbench.identify import pair_modes
 
-    sensors = [Sensor(s.station, s.direction, "displacement") if s.quantity != "strain"
-               else Sensor(s.station, s.direction, "strain") for s in spec.sensors]
-    band = spec.update.band_hz or (min(t.band_hz[0] for t in spec.tests),
-                                   max(t.band_hz[1] for t in spec.tests))
+    sensors = displacement_sensors(spec.sensors)
+    band = analysis_band(spec)
     truth = setup.plant.build(setup.parameters, [], sensors, setup.additions)
     model = spec.make_plant().build(params, [], sensors)
-    mt = _modal_at_sensors(truth, sensors, band, n_modes)
-    mm = _modal_at_sensors(model, sensors, band, n_modes)
+    mt = modes_at_sensors(truth, sensors, band, n_modes)
+    mm = modes_at_sensors(model, sensors, band, n_modes)
     pairing = pair_modes(mt, mm, mac_min=0.6)
     pairs = np.asarray(pairing.pairs, dtype=int).reshape(-1, 2)
     ti, mi = pairs[:, 0], pairs[:, 1]

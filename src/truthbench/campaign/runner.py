@@ -87,6 +87,10 @@ class TrialResult:
     """``{"initial": ..., "updated": ...}``: modes against the truth
     (:func:`~truthbench.campaign.metrics.modal_accuracy`)."""
     error: str | None = None
+    comparison: dict = field(default_factory=dict)
+    """Every updater's result by name (or its error message)."""
+    uncertainty: object | None = None
+    """:class:`~truthbench.campaign.uncertainty_stage.UncertaintyStage`, or None."""
 
 
 @dataclass(frozen=True)
@@ -146,6 +150,26 @@ def warm_up_samples(A: np.ndarray, segment: int, fs_hz: float, n: int,
     return int(min(max(segment, np.ceil(t * fs_hz / 1.0)), 4 * n))
 
 
+def _nonlinear_elements(setup, model, modes, m: int):
+    """The setup's nonlinear laws as elements of the modal system (state [eta; eta'])."""
+    from truthbench.errors import ModelError
+    from truthbench.simulate.nonlinear import NonlinearElement
+
+    if setup.loops:
+        raise ModelError("a closed loop together with a nonlinear effect is not supported "
+                         "yet; remove one of them")
+    acc = np.array([q == "acceleration" for q in model.quantities])
+    Cm = model.C_out @ modes.shapes
+    out = []
+    for station, direction, law in setup.nonlinear:
+        label = f"n{setup.plant.station_node(station)}.{direction}"
+        if label not in model.dof_labels:
+            raise ModelError(f"nonlinear effect at {station}/{direction}: that DOF is clamped")
+        phi = modes.shapes[model.dof_labels.index(label), :m]
+        out.append(NonlinearElement.modal(law, phi, np.where(acc, Cm @ phi, 0.0)))
+    return out
+
+
 def _check_loop(loop, n_out: int, n_act: int) -> None:
     from truthbench.errors import ModelError
 
@@ -175,7 +199,8 @@ def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
     model = setup.plant.build(setup.parameters, acts + disturbers, sens, setup.additions)
     modes = model.modes()
     n = int(round(test.record_s * test.fs_hz))
-    R = 1 if test.simulation == "periodic" else test.oversample
+    periodic = test.simulation == "periodic" and not setup.nonlinear
+    R = 1 if periodic else test.oversample
     fine_fs = test.fs_hz * R
     # periodic band-limited force; at the fine rate its decimation is exact
     u_fine = band_limited_random(n * R, fine_fs, test.level_rms, tuple(test.band_hz), rng,
@@ -188,7 +213,7 @@ def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
                                                         n_inputs=len(disturbers))])
     f = np.fft.rfftfreq(n * R, 1.0 / fine_fs)
     F = np.fft.rfft(forces, axis=1)
-    if test.simulation == "periodic":
+    if periodic:
         # excited lines (the force is band-limited; rounding leaves ~1e-16 elsewhere);
         # no static (0 Hz) force: a free body would drift away under it
         excited = np.any(np.abs(F) > 1e-12 * np.abs(F).max(), axis=0) & (f > 0)
@@ -213,7 +238,14 @@ def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
         warm = warm_up_samples(A, n // test.averages, fine_fs, n) * R
         reps = -(-warm // (n * R))  # whole periods of the periodic drive before the record
         drive = np.concatenate([np.tile(drive, (1, reps))[:, -warm:], drive], axis=1)
-        y_fine = simulate_lti(A, B, C, D, drive, 1.0 / fine_fs)[:, warm:]
+        if setup.nonlinear:
+            from truthbench.simulate.nonlinear import simulate_nonlinear
+
+            elements = _nonlinear_elements(setup, model, modes, A.shape[0] // 2)
+            y_fine = simulate_nonlinear(A, B, C, D, drive, 1.0 / fine_fs,
+                                        elements).y[:, warm:]
+        else:
+            y_fine = simulate_lti(A, B, C, D, drive, 1.0 / fine_fs)[:, warm:]
     y_fine = _apply_filters(y_fine, fine_fs, setup.output_filters, setup.delay_s)
     u, y = u_fine[:, ::R], y_fine[:, ::R]
     y = setup.bias_gain * y + setup.bias_offset
@@ -310,23 +342,59 @@ def _weights(spec: CampaignSpec, records, masks) -> np.ndarray | None:
     return np.concatenate([p.ravel() for p in parts])
 
 
-def update_trial(spec: CampaignSpec, records):
-    """Update the nominal model against the trial's FRFs (finite-difference method)."""
-    from truthbench.update import finite_difference_update
+def measured_modes(spec: CampaignSpec, records, params: dict) -> list:
+    """Identified modes of every test as :class:`~truthbench.update.MeasuredModes` at
+    the model DOFs its (non-strain) sensors sit on."""
+    from truthbench.update import MeasuredModes
 
+    plant = spec.make_plant()
+    labels = plant.build(params).dof_labels
+    out = []
+    for j, rec in enumerate(records):
+        if rec.modes is None or len(rec.modes.freq_hz) == 0:
+            continue
+        rows, dofs = [], []
+        for i, s in enumerate(spec.test_sensors(j)):
+            label = f"n{plant.station_node(s.station)}.{s.direction}"
+            if s.quantity != "strain" and label in labels:
+                rows.append(i)
+                dofs.append(labels.index(label))
+        if rows:
+            out.append(MeasuredModes(np.asarray(rec.modes.freq_hz),
+                                     np.asarray(rec.modes.shapes)[rows], np.array(dofs)))
+    return out
+
+
+def update_trial(spec: CampaignSpec, records, method: str | None = None):
+    """Update the nominal model against the trial's data with one registered updater
+    (default: the campaign's primary method)."""
+    from truthbench.update import UpdateProblem, get_updater
+
+    method = method or spec.update_methods()[0]
     masks = update_masks(spec, records)
     data = np.concatenate([rec.H[m].ravel() for rec, m in zip(records, masks, strict=True)])
     nominal = spec.nominal_parameters()
+    plant = spec.make_plant()
 
     def predict(theta):
         return np.concatenate([h.ravel() for h in model_frfs(spec, theta, records, masks)])
 
-    n_pairs = sum(rec.H.shape[1] * rec.H.shape[2] for rec in records)
+    def build_mk(theta):
+        model = plant.build(theta)
+        return model.M, model.K
+
     u = spec.update
-    return finite_difference_update(
-        predict, data, nominal, u.parameters, n_pairs=n_pairs,
-        weights=_weights(spec, records, masks), max_iterations=u.max_iterations,
-        tolerance=u.tolerance, relative_step=u.relative_step, scheme=u.scheme), masks
+    problem = UpdateProblem(
+        names=tuple(u.parameters), theta0=nominal, predict_frf=predict, frf_data=data,
+        frf_weights=_weights(spec, records, masks),
+        n_pairs=sum(rec.H.shape[1] * rec.H.shape[2] for rec in records),
+        build_mk=build_mk,
+        measured=measured_modes(spec, records, nominal) if method == "sensitivity" else None,
+        options={"finite_difference": dict(max_iterations=u.max_iterations,
+                                           tolerance=u.tolerance,
+                                           relative_step=u.relative_step, scheme=u.scheme),
+                 "sensitivity": dict(max_iterations=u.max_iterations, mac_min=0.8)})
+    return get_updater(method).update(problem), masks
 
 
 def simulate_one(spec: CampaignSpec, trial: int, j: int, seed: int | None = None,
@@ -359,22 +427,47 @@ def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
             u, y = simulate_test(spec, j, setup, excitation_rng(seed, trial, j))
             records.append(measure_test(spec, j, u, y, truth_record(setup)))
         truth = hardware_truth(spec, records)
-        if spec.update.method == "none":
-            return TrialResult(trial, tuple(records), truth)
-        result, masks = update_trial(spec, records)
         nominal = spec.nominal_parameters()
-        updated = {**nominal, **result.as_dict()}
+        stage = None
+        if len(records) > 1 and spec.identify.enabled:
+            from truthbench.campaign.uncertainty_stage import uncertainty_stage
+
+            stage = uncertainty_stage(spec, trial, seed, records, nominal)
+        methods = spec.update_methods()
+        if not methods:
+            return TrialResult(trial, tuple(records), truth, uncertainty=stage)
         from truthbench.campaign.metrics import modal_accuracy
 
         hardware = build_test_setup(spec, trial, 0, seed)
-        accuracy = {"initial": modal_accuracy(spec, hardware, nominal),
-                    "updated": modal_accuracy(spec, hardware, updated)}
+        accuracy = {"initial": modal_accuracy(spec, hardware, nominal)}
+        comparison = {}
+        for method in methods:
+            try:
+                res, masks = update_trial(spec, records, method)
+            except Exception as exc:  # one method failing does not lose the others
+                if method == methods[0]:
+                    raise
+                comparison[method] = f"{type(exc).__name__}: {exc}"
+                continue
+            comparison[method] = res
+            accuracy[method] = modal_accuracy(spec, hardware, {**nominal, **res.as_dict()})
+            if method == methods[0]:
+                result = res
+        updated = {**nominal, **result.as_dict()}
+        accuracy["updated"] = accuracy[methods[0]]
+        if stage is not None:
+            from dataclasses import replace
+
+            from truthbench.campaign.uncertainty_stage import model_values
+
+            stage = replace(stage, theta_updated=model_values(spec, updated, stage.mode_index))
         full = [np.ones_like(rec.freq_hz, dtype=bool) for rec in records]
         full = [m & (rec.freq_hz > 0) for m, rec in zip(full, records, strict=True)]
         return TrialResult(
             trial, tuple(records), truth, result,
             tuple(model_frfs(spec, nominal, records, full)),
-            tuple(model_frfs(spec, updated, records, full)), tuple(masks), accuracy)
+            tuple(model_frfs(spec, updated, records, full)), tuple(masks), accuracy,
+            comparison=comparison, uncertainty=stage)
     except Exception as exc:  # recorded per trial; the campaign goes on
         msg = f"{type(exc).__name__}: {exc}"
         if not isinstance(exc, ValueError | RuntimeError):

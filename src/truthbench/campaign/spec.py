@@ -108,7 +108,9 @@ class IdentifySpec(_Strict):
 
 
 class UpdateSpec(_Strict):
-    method: Literal["finite_difference", "none"] = "finite_difference"
+    method: str | list[str] = "finite_difference"
+    """An updater name from :data:`truthbench.update.UPDATERS`, a list of them (run side
+    by side; the first is the primary), or "none"."""
     parameters: list[str] = Field(default_factory=list)
     band_hz: tuple[NonNegFloat, PositiveFloat] | None = None
     weighting: Literal["none", "coherence", "inverse_magnitude"] = "none"
@@ -148,6 +150,12 @@ class CampaignSpec(_Strict):
             base = key.split("@")[0]
             out[key] = nominal.get(key, nominal[base]) * (1.0 + frac)
         return out
+
+    def update_methods(self) -> list[str]:
+        """The updaters to run, primary first (empty for "none")."""
+        m = self.update.method
+        methods = [m] if isinstance(m, str) else list(m)
+        return [x for x in methods if x != "none"]
 
     def truth_effects(self) -> list:
         """The campaign's effects, validated (:class:`~truthbench.effects.EffectSpec`)."""
@@ -254,9 +262,18 @@ def _check_references(spec: CampaignSpec) -> None:
                 raise CampaignError(f"{src}: effect {eff.name!r}: {exc}") from None
     for key in spec.update.parameters:
         check_param(key, "update.parameters")
-    if spec.update.method != "none" and not spec.update.parameters:
+    from truthbench.update import UPDATERS
+
+    for m in spec.update_methods():
+        if m not in UPDATERS:
+            raise CampaignError(f"{src}: key 'update.method': unknown updater {m!r}; expected "
+                                f"one of {', '.join(sorted(UPDATERS))} or 'none'")
+    if spec.update_methods() and not spec.update.parameters:
         raise CampaignError(f"{src}: key 'update.parameters': expected at least one parameter "
                             f"for method {spec.update.method!r}; got an empty list")
+    if "sensitivity" in spec.update_methods() and not spec.identify.enabled:
+        raise CampaignError(f"{src}: key 'identify.enabled': the sensitivity method needs "
+                            f"identified modes; expected true, got false")
 
     def check_station(station: str, where: str):
         try:
@@ -285,7 +302,7 @@ def _check_references(spec: CampaignSpec) -> None:
             raise CampaignError(f"{src}: key 'tests[{j}].averages': {t.averages} averages of a "
                                 f"{n}-sample record leave fewer than 16 samples per segment")
     # m r > p (METHOD 5.1): SISO pairs over all tests against updated parameters
-    if spec.update.method == "finite_difference":
+    if "finite_difference" in spec.update_methods():
         pairs = sum(len(t.actuators) * len(spec.test_sensors(j)) for j, t in
                     enumerate(spec.tests))
         p = len(spec.update.parameters)

@@ -15,8 +15,12 @@ Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
                            singular_values, correlation; attrs converged, method,
                            condition_number
         model/<name>       datasets H_initial, H_updated, update_mask
-        accuracy/initial, accuracy/updated   modes against the truth at the sensors:
-                           truth_freq_hz, freq_error_pct, damping_error_pct, mac
+        updates/<method>   the same for every updater run side by side (or attr error)
+        accuracy/initial, accuracy/updated, accuracy/<method>   modes against the truth
+                           at the sensors: truth_freq_hz, freq_error_pct,
+                           damping_error_pct, mac
+        uncertainty        names, theta_0, theta_tests, theta_truth (per test), mean, std,
+                           bound (Eq. 10.46-10.50), inside (truth within the bound)
 
 A failed trial is written with what it had computed, so nothing is lost.
 """
@@ -73,14 +77,21 @@ def write_results(result, path: str | Path) -> Path:
                            "output_labels": list(rec.output_labels)})
                 _attrs(t.create_group("parameters"), rec.parameters)
                 _write_modes(t, rec.modes)
+            if tr.uncertainty is not None:
+                st = g.create_group("uncertainty")
+                st.create_dataset("names", data=np.array(tr.uncertainty.names, dtype="S"))
+                for name in ("theta_0", "theta_tests", "theta_truth", "mean", "std", "bound",
+                             "inside", "mode_index", "theta_updated"):
+                    if getattr(tr.uncertainty, name) is not None:
+                        st.create_dataset(name, data=getattr(tr.uncertainty, name))
             if tr.update is not None:
-                u = g.create_group("update")
-                u.create_dataset("names", data=np.array(tr.update.names, dtype="S"))
-                for name in ("initial", "values", "history", "cost_history",
-                             "singular_values", "correlation"):
-                    u.create_dataset(name, data=getattr(tr.update, name))
-                _attrs(u, {"converged": tr.update.converged, "method": tr.update.method,
-                           "condition_number": tr.update.condition_number})
+                _write_update(g.create_group("update"), tr.update)
+                for method, res in tr.comparison.items():
+                    c = g.create_group(f"updates/{method}")
+                    if isinstance(res, str):
+                        c.attrs["error"] = res
+                    else:
+                        _write_update(c, res)
                 for stage, acc in tr.accuracy.items():
                     a = g.create_group(f"accuracy/{stage}")
                     for key, value in acc.items():
@@ -123,6 +134,15 @@ def write_test_record(record, path: str | Path, *, spec, seed: int, trial: int,
         _attrs(t.create_group("parameters"), record.parameters)
         _write_modes(t, record.modes)
     return path
+
+
+def _write_update(u, res) -> None:
+    u.create_dataset("names", data=np.array(res.names, dtype="S"))
+    for name in ("initial", "values", "history", "cost_history", "singular_values",
+                 "correlation"):
+        u.create_dataset(name, data=getattr(res, name))
+    _attrs(u, {"converged": res.converged, "method": res.method,
+               "condition_number": res.condition_number})
 
 
 def _write_modes(group, modes) -> None:

@@ -105,6 +105,78 @@ def modal_accuracy_table(results: dict):
     return pd.DataFrame(out)
 
 
+def method_comparison_table(results: dict):
+    """No update against every updater: parameter RMS error against the truth (%),
+    mean absolute frequency error and smallest MAC of the modes against the truth, over
+    trials."""
+    import pandas as pd
+
+    ok = _ok_trials(results)
+    if not ok:
+        return pd.DataFrame()
+    methods = sorted({m for _, t in ok for m in t.get("updates", {}) if m != "attrs"})
+    rows = []
+    for label in ["none", *methods]:
+        perr, ferr, macs, fails = [], [], [], 0
+        for _, t in ok:
+            stage = "initial" if label == "none" else label
+            if label != "none":
+                u = t["updates"][label]
+                if "values" not in u:
+                    fails += 1
+                    continue
+                names = [n.decode() if isinstance(n, bytes) else n for n in u["names"]]
+                vals = u["values"]
+            else:
+                u = t["update"]
+                names = [n.decode() if isinstance(n, bytes) else n for n in u["names"]]
+                vals = u["initial"]
+            truth = np.array([t["truth"]["attrs"][n] for n in names])
+            perr.extend(100 * (vals / truth - 1))
+            acc = t.get("accuracy", {}).get(stage)
+            if acc:
+                ferr.extend(np.abs(acc["freq_error_pct"]))
+                macs.extend(acc["mac"])
+        rows.append({"method": label,
+                     "parameter RMS error [%]": float(np.sqrt(np.mean(np.square(perr))))
+                     if perr else np.nan,
+                     "mean |freq error| [%]": float(np.mean(ferr)) if ferr else np.nan,
+                     "min MAC": float(np.min(macs)) if macs else np.nan,
+                     "failed trials": fails})
+    return pd.DataFrame(rows)
+
+
+def uncertainty_summary(results: dict):
+    """The first trial's uncertainty model (Eq. 10.46-10.50) and the coverage of the
+    3-sigma bound over all trials (true per-test parameters inside it), with a 95 %
+    Wilson interval and the Student-t expectation for the number of tests."""
+    import pandas as pd
+
+    trials = [(k, t) for k, t in _trials(results) if k != "attrs" and "uncertainty" in t]
+    if not trials:
+        return pd.DataFrame(), None
+    u = trials[0][1]["uncertainty"]
+    names = [n.decode() if isinstance(n, bytes) else n for n in u["names"]]
+    table = pd.DataFrame({"parameter": names, "initial model": u["theta_0"],
+                          "mean error": u["mean"], "std": u["std"],
+                          "3-sigma bound": u["bound"],
+                          "tests inside": [int(np.sum(np.abs(u["theta_tests"][:, i]
+                                                             - u["theta_0"][i]
+                                                             - u["mean"][i])
+                                                      <= u["bound"][i]))
+                                           for i in range(len(names))],
+                          "truth inside": u["inside"].sum(axis=0)})
+    inside = np.concatenate([np.asarray(t["uncertainty"]["inside"]).ravel()
+                             for _, t in trials])
+    from truthbench.uncertainty import coverage_fraction, expected_coverage
+
+    cov = coverage_fraction(inside)
+    n_tests = u["theta_tests"].shape[0]
+    return table, {"coverage": cov, "n": inside.size,
+                   "expected_t": expected_coverage(3.0, n_tests),
+                   "expected_normal": expected_coverage(3.0)}
+
+
 def plot_frfs(results: dict, path: Path, max_outputs: int = 3) -> Path | None:
     """Data against the initial and updated model FRFs (first trial, first input)."""
     import matplotlib
@@ -145,6 +217,32 @@ def plot_frfs(results: dict, path: Path, max_outputs: int = 3) -> Path | None:
         axes[-1, c].set_xlabel("frequency [Hz]")
     axes[0, 0].legend(loc="best", fontsize=8)
     fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_poles(results: dict, path: Path) -> Path | None:
+    """Figure 10.6 for the first trial: per-test poles, mean, bound, initial and updated
+    model (identified modes paired with the initial model)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from truthbench.uncertainty.plots import plot_pole_bound
+
+    trials = [(k, t) for k, t in _trials(results) if k != "attrs" and "uncertainty" in t]
+    if not trials:
+        return None
+    _, t = trials[0]
+    u = t["uncertainty"]
+    k = u["theta_tests"].shape[1] // 2
+    kw = {}
+    if "theta_updated" in u:
+        kw = {"freq_hz_updated": u["theta_updated"][:k], "damping_updated": u["theta_updated"][k:]}
+    fig = plot_pole_bound(u["theta_tests"][:, :k], u["theta_tests"][:, k:],
+                          freq_hz_fem=u["theta_0"][:k], damping_fem=u["theta_0"][k:], **kw)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -232,6 +330,31 @@ def write_report(results: dict, out_dir: str | Path) -> Path:
                   "at the sensors (mean over trials).", ""]
         lines.append(_md_table(acc))
         lines.append("")
+    comp = method_comparison_table(results)
+    if len(comp) > 2 or (not comp.empty and len(comp) == 2):
+        lines += ["## Updating methods side by side", "",
+                  "Against the known truth: no update, then every updater of the campaign.",
+                  ""]
+        lines.append(_md_table(comp))
+        lines.append("")
+    utab, cov = uncertainty_summary(results)
+    if cov is not None:
+        c = cov["coverage"]
+        lines += ["## Uncertainty model (Eq. 10.46-10.50)", "",
+                  "Identified per-test frequencies and damping ratios minus the initial "
+                  "model; mean error and 3-sigma bound (first trial); 'truth inside' counts "
+                  "the tests whose true modal parameters lie inside the bound.", ""]
+        lines.append(_md_table(utab))
+        lines += ["", f"Coverage over all trials: {c.fraction:.4f} of {cov['n']} true "
+                      f"per-test parameters inside the 3-sigma bound (95 % interval "
+                      f"{c.ci_low:.4f}-{c.ci_high:.4f}); a normal population with the variance "
+                      f"estimated from these tests predicts "
+                      f"{cov['expected_t']:.4f} (Student-t), {cov['expected_normal']:.4f} "
+                      f"with the variance known. A shortfall means the truth varies in ways "
+                      f"the tests do not sample, or the identification is biased.", ""]
+        png = plot_poles(results, out / "poles.png")
+        if png is not None:
+            lines += ["![Pole plot (Figure 10.6)](poles.png)", ""]
     lines += ["## FRF error over the update band", ""]
     lines.append(_md_table(frf_error_table(results)))
     if failed:

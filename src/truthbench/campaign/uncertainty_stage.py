@@ -1,0 +1,128 @@
+"""The uncertainty stage of a campaign (METHOD 6, Eq. 10.46-10.50, Figure 10.6).
+
+For every test the identified modes are paired (MAC at the test's sensors, frequency
+distance) with the initial model's modes inside the analysis band; model modes paired
+in every test give the per-test parameter sets ``theta_j = [f_1..f_k, zeta_1..zeta_k]``.
+With ``theta_0`` the initial model's values, :func:`truthbench.uncertainty.uncertainty_model`
+gives the mean error and the 3-sigma bound. Each test's TRUE modal parameters (the modes
+of that test's hardware, paired the same way) are checked against the bound: the
+coverage that the Monte Carlo report aggregates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class UncertaintyStage:
+    """Per-trial result of the uncertainty stage.
+
+    Attributes
+    ----------
+    names : tuple of str
+        ``f<k>_hz`` then ``zeta<k>`` for the k paired model modes.
+    theta_0 : ndarray, shape (p,)
+        Initial model values.
+    theta_tests : ndarray, shape (T, p)
+        Identified values per test.
+    theta_truth : ndarray, shape (T, p)
+        True values per test (NaN where a true mode did not pair).
+    mean, std, bound : ndarray, shape (p,)
+        Mean error, standard deviation, 3-sigma bound of Eq. 10.47-10.50.
+    inside : ndarray of bool, shape (T, p)
+        True values inside ``theta_0 + mean +- bound``.
+    mode_index : ndarray of int, shape (k,)
+        The paired modes' indices among the initial model's modes in the band.
+    theta_updated : ndarray, shape (p,)
+        The updated model's values for the same modes (NaN until set, or if unpaired).
+    """
+
+    names: tuple[str, ...]
+    theta_0: np.ndarray
+    theta_tests: np.ndarray
+    theta_truth: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    bound: np.ndarray
+    inside: np.ndarray
+    mode_index: np.ndarray
+    theta_updated: np.ndarray | None = None
+
+
+def model_values(spec, params: dict, mode_index) -> np.ndarray:
+    """``[f..., zeta...]`` of the model at ``params`` for the initial model's modes
+    ``mode_index`` (paired by MAC at the first test's sensors)."""
+    from truthbench.campaign.metrics import analysis_band, displacement_sensors, modes_at_sensors
+
+    sensors = displacement_sensors(spec.test_sensors(0))
+    band = analysis_band(spec)
+    plant = spec.make_plant()
+    ref = modes_at_sensors(plant.build(spec.nominal_parameters(), [], sensors), sensors,
+                           band, 40)
+    other = modes_at_sensors(plant.build(params, [], sensors), sensors, band, 40)
+    k = _pair(ref, other)[mode_index]
+    f = np.where(k >= 0, other.freq_hz[k], np.nan)
+    z = np.where(k >= 0, other.damping_ratio[k], np.nan)
+    return np.concatenate([f, z])
+
+
+def _pair(reference, other):
+    """For each reference mode, the index of its partner in ``other`` or -1."""
+    from truthbench.identify import pair_modes
+
+    out = np.full(len(reference.freq_hz), -1)
+    if len(other.freq_hz) == 0:
+        return out
+    pairing = pair_modes(reference, other, mac_min=0.8)
+    for a, b in np.asarray(pairing.pairs, dtype=int).reshape(-1, 2):
+        out[a] = b
+    return out
+
+
+def uncertainty_stage(spec, trial: int, seed: int, records, params0: dict):
+    """The uncertainty model of one trial's tests, or None when fewer than two tests
+    identified a common mode (nothing to bound)."""
+    from truthbench.campaign.metrics import analysis_band, displacement_sensors, modes_at_sensors
+    from truthbench.campaign.truth import build_test_setup
+    from truthbench.identify import ModalParameters
+    from truthbench.uncertainty import uncertainty_model
+
+    band = analysis_band(spec)
+    plant = spec.make_plant()
+    f_t, z_t, f_true, z_true = [], [], [], []
+    ref = None
+    for j, rec in enumerate(records):
+        sensors = displacement_sensors(spec.test_sensors(j))
+        model = modes_at_sensors(plant.build(params0, [], sensors), sensors, band, 40)
+        ref = model if ref is None else ref
+        ident = rec.modes
+        if ident is None:
+            return None
+        ident = ModalParameters(ident.freq_hz, ident.damping_ratio, ident.shapes)
+        k = _pair(model, ident)
+        setup = build_test_setup(spec, trial, j, seed)
+        truth = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors,
+                                                   setup.additions), sensors, band, 60)
+        kt = _pair(model, truth)
+        f_t.append(np.where(k >= 0, ident.freq_hz[k], np.nan))
+        z_t.append(np.where(k >= 0, ident.damping_ratio[k], np.nan))
+        f_true.append(np.where(kt >= 0, truth.freq_hz[kt], np.nan))
+        z_true.append(np.where(kt >= 0, truth.damping_ratio[kt], np.nan))
+    if len(records) < 2:
+        return None
+    f_t, z_t = np.array(f_t), np.array(z_t)
+    common = np.all(np.isfinite(f_t), axis=0)
+    if not common.any():
+        return None
+    idx = np.flatnonzero(common)
+    names = tuple(f"f{i + 1}_hz" for i in idx) + tuple(f"zeta{i + 1}" for i in idx)
+    theta_0 = np.concatenate([ref.freq_hz[idx], ref.damping_ratio[idx]])
+    tests = np.hstack([f_t[:, idx], z_t[:, idx]])
+    truth = np.hstack([np.array(f_true)[:, idx], np.array(z_true)[:, idx]])
+    um = uncertainty_model(tests, theta_0, names=names, covariance="diagonal")
+    inside = um.contains(truth)
+    return UncertaintyStage(names, theta_0, tests, truth, np.asarray(um.mean),
+                            np.asarray(um.std), np.asarray(um.bound), np.asarray(inside), idx)
