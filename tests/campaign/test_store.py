@@ -89,7 +89,8 @@ def test_methods_side_by_side_and_uncertainty_stage(small_dict, tmp_path):
     data = read_results(write_results(result, tmp_path / "r.h5"))
     comp = method_comparison_table(data)
     assert list(comp["method"]) == ["none", "finite_difference", "sensitivity"]
-    assert (comp["parameter RMS error [%]"].iloc[1:] < comp["parameter RMS error [%]"].iloc[0]).all()
+    rms = comp["parameter RMS error [%]"]
+    assert (rms.iloc[1:] < rms.iloc[0]).all()
     table, cov = uncertainty_summary(data)
     assert cov is not None and cov["n"] == tr.uncertainty.inside.size
     assert tr.uncertainty.theta_tests.shape[0] == 3
