@@ -93,3 +93,13 @@ def test_simulate_bad_input(tmp_path, capsys):
     assert "unknown effect 'gremlin'" in capsys.readouterr().err
     assert main(["simulate", str(camp), "--out", out, "--test", "5"]) == 2
     assert "test index 5 does not exist" in capsys.readouterr().err
+
+
+def test_place_sensors(capsys):
+    assert main(["place-sensors", str(ROOT / "campaigns" / "hub_beam.toml"), "--count",
+                 "3"]) == 0
+    out = capsys.readouterr().out
+    assert "greedy D-optimal choice of 3" in out
+    # in-plane bending: the ranked candidates are y translations, the tip region first
+    ranked = [line.split()[1] for line in out.splitlines()[3:6]]
+    assert all(lab.endswith(".y") for lab in ranked) and ranked[0] == "n20.y"

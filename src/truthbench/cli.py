@@ -93,6 +93,26 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
+def _cmd_place_sensors(args) -> int:
+    from truthbench.campaign.placement_stage import rank_campaign_sensors
+    from truthbench.campaign.spec import load_campaign
+
+    spec = load_campaign(args.campaign)
+    by_sens, by_gram = rank_campaign_sensors(spec, args.count)
+    chosen = list(by_sens.selected) if by_sens.selected is not None else []
+    print(f"{spec.campaign.name}: candidate DOFs ranked for parameters "
+          f"{', '.join(spec.update.parameters)}")
+    print(f"greedy D-optimal choice of {args.count}: "
+          f"{', '.join(by_sens.labels[i] for i in chosen[:args.count])}")
+    print(f"{'rank':>4}  {'by shape sensitivity':<24}{'score':>12}    "
+          f"{'by observability gramian':<24}{'share':>8}")
+    for r in range(min(args.count, len(by_sens.order))):
+        a, b = by_sens.order[r], by_gram.order[r]
+        print(f"{r + 1:>4}  {by_sens.labels[a]:<24}{by_sens.scores[a]:>12.4g}    "
+              f"{by_gram.labels[b]:<24}{by_gram.scores[b]:>8.4f}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="truthbench",
@@ -122,6 +142,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="add an effect the campaign does not declare (repeatable), e.g. "
                          "time_delay:delay_s=0.002 or joint:station=mid,stiffness_loss=0.3")
     sm.set_defaults(func=_cmd_simulate)
+
+    ps = sub.add_parser("place-sensors", help="rank sensor DOFs (Eq. 10.45 and gramian)")
+    ps.add_argument("campaign", help="campaign TOML file")
+    ps.add_argument("--count", type=int, default=4, help="sensors to choose (default 4)")
+    ps.set_defaults(func=_cmd_place_sensors)
 
     m = sub.add_parser("modes", help="modal table of the nominal and truth models")
     m.add_argument("campaign", help="campaign TOML file")
