@@ -23,8 +23,11 @@ def rank_campaign_sensors(spec, count: int):
     by_sensitivity, by_gramian : SensorRanking
     """
     from truthbench.campaign.metrics import analysis_band
-    from truthbench.placement import modal_candidate_system, rank_sensors_by_gramian
-    from truthbench.placement import rank_sensors_by_sensitivity
+    from truthbench.placement import (
+        modal_candidate_system,
+        rank_sensors_by_gramian,
+        rank_sensors_by_sensitivity,
+    )
     from truthbench.update import eigen_sensitivities, macroelement_matrices
 
     if not spec.update.parameters:
