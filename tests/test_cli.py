@@ -103,3 +103,14 @@ def test_place_sensors(capsys):
     # in-plane bending: the ranked candidates are y translations, the tip region first
     ranked = [line.split()[1] for line in out.splitlines()[3:6]]
     assert all(lab.endswith(".y") for lab in ranked) and ranked[0] == "n20.y"
+
+
+def test_report_html_is_self_contained(tmp_path):
+    from truthbench.report.html import markdown_to_html
+
+    (tmp_path / "f.png").write_bytes(b"\x89PNG fake")
+    page = markdown_to_html("# T\n\ntext `x`\n\n| a | b |\n|---|---|\n| 1 | 2 |\n\n- item\n\n"
+                            "![fig](f.png)\n", tmp_path)
+    assert "<h1>T</h1>" in page and "<code>x</code>" in page
+    assert "<td>1</td><td>2</td>" in page and "<li>item</li>" in page
+    assert "data:image/png;base64," in page and "f.png" not in page.split("base64,")[1]

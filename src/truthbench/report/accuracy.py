@@ -368,4 +368,7 @@ def write_report(results: dict, out_dir: str | Path) -> Path:
                   "![FRFs](frf.png)", ""]
     path = out / "report.md"
     path.write_text("\n".join(lines), encoding="utf-8")
+    from truthbench.report.html import write_html
+
+    write_html(path)
     return path
