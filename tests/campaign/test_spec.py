@@ -76,3 +76,14 @@ def test_bad_toml_and_missing_file(tmp_path):
         load_campaign(bad)
     with pytest.raises(CampaignError, match="not found"):
         load_campaign(tmp_path / "none.toml")
+
+
+def test_unknown_update_method_and_group(quickstart_dict):
+    quickstart_dict["update"]["method"] = ["finite_difference", "kalman"]
+    with pytest.raises(CampaignError, match=r"(?s)'update.method'.*unknown updater 'kalman'.*"
+                                            r"finite_difference, sensitivity"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+    quickstart_dict["update"]["method"] = "finite_difference"
+    quickstart_dict["update"]["parameters"] = ["E_pa@g9"]
+    with pytest.raises(CampaignError, match=r"(?s)'update.parameters'.*no parameter 'E_pa@g9'"):
+        parse_campaign(quickstart_dict, "cfg.toml")
