@@ -9,8 +9,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from truthbench.plants.base import Plant, StructuralAdditions
 
 
@@ -115,7 +113,3 @@ class SetupBuilder:
             bias_offset=self.bias_offset, bias_gain=self.bias_gain,
             disturbances=tuple(self.disturbances), nonlinear=tuple(self.nonlinear),
             loops=tuple(self.loops), effects=dict(self.effects))
-
-
-def as_array(x) -> np.ndarray:
-    return np.asarray(x, dtype=float)
