@@ -343,6 +343,57 @@ def test_closed_loop_equals_python_control_feedback(hub_base):
     assert np.abs(Ho - Hc).max() > 0.1 * np.abs(Hc).max()
 
 
+def _hub_frf(hub_base, effects, level, seed=11):
+    for t in hub_base["tests"]:
+        t.update(level_rms=level, record_s=32.0, averages=4, window="hann", oversample=4,
+                 simulation="time")
+    spec = _spec(hub_base, effects)
+    setup, (u, y) = _record(spec, 0, seed)
+    est = estimate_frf(u, y, spec.tests[0].fs_hz, window="hann", n_averages=4)
+    return spec, setup, est
+
+
+def test_coulomb_friction_effect_shrinks_as_the_level_grows(hub_base):
+    """METHOD 1: Coulomb friction is a constant force, so its effect on the FRF shrinks
+    as the excitation grows. Once friction is a small perturbation its equivalent viscous
+    damping, 4 F_c / (pi omega X), falls as 1 / amplitude: the FRF error at the first
+    mode should fall about 10 times per 10 times the level (measured 0.99, 0.56,
+    0.075, 0.0077)."""
+    COVERED.add("coulomb_friction")
+    fric = [{"name": "coulomb_friction", "station": "hub", "direction": "rz",
+             "parameters": {"force_n": 0.05}}]
+    errors = []
+    for level in (0.05, 0.5, 5.0, 50.0):
+        spec, setup, est = _hub_frf(hub_base, fric, level)
+        _, _, lin = _hub_frf(hub_base, [], level)
+        band = (est.freq_hz > 6) & (est.freq_hz < 11)  # around the 8.4 Hz mode
+        errors.append(np.abs(est.H[band, 0, 0] - lin.H[band, 0, 0]).max()
+                      / np.abs(lin.H[band, 0, 0]).max())
+    assert errors[0] > errors[1] > errors[2] > errors[3], errors
+    assert 7 < errors[2] / errors[3] < 13, errors
+
+
+@pytest.mark.parametrize("entry", [
+    {"name": "cubic_stiffness", "station": "tip", "direction": "y",
+     "parameters": {"k3_n_m3": 1e9}},
+    {"name": "dead_band", "station": "tip", "direction": "y",
+     "parameters": {"gap_m": 1e-5, "stiffness_n_m": 2e3}},
+    {"name": "amplitude_damping", "station": "tip", "direction": "y",
+     "parameters": {"c2_n_s2_m2": 50.0}},
+])
+def test_weak_and_strong_nonlinearities_change_the_response(hub_base, entry):
+    COVERED.add(entry["name"])
+    _, _, lin = _hub_frf(hub_base, [], 1.0)
+    _, setup, est = _hub_frf(hub_base, [entry], 1.0)
+    assert len(setup.nonlinear) == 1
+    band = (est.freq_hz > 2) & (est.freq_hz < 60)
+    rel = np.abs(est.H[band] - lin.H[band]).max() / np.abs(lin.H[band]).max()
+    assert rel > 1e-3
+    zero = {**entry, "parameters": {k: 0.0 for k in entry["parameters"]}}
+    _, _, same = _hub_frf(hub_base, [zero], 1.0)
+    np.testing.assert_allclose(same.H[band], lin.H[band], rtol=1e-9, atol=1e-12)
+
+
 def test_every_registered_effect_is_tested():
     # runs last in this file (pytest keeps file order)
     assert set(EFFECTS) <= COVERED, sorted(set(EFFECTS) - COVERED)

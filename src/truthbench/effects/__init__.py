@@ -4,7 +4,7 @@ See :mod:`truthbench.effects.base` for the protocol and the scopes. Importing th
 package registers every effect.
 """
 
-from truthbench.effects import appended, loop, measurement, structural  # noqa: F401
+from truthbench.effects import appended, loop, measurement, nonlinear, structural  # noqa: F401
 from truthbench.effects.base import (
     EFFECTS,
     SCOPES,

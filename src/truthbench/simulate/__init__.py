@@ -12,6 +12,7 @@ Everything is a pure function of its arguments (randomness only via an explicit
 ``numpy.random.Generator``); inputs are never modified. SI units throughout.
 """
 
+from .delay import delay_frf, delay_signal, fractional_delay_fir
 from .excitation import band_limited_random, periodic_chirp, sine
 from .linear import (
     LtiRecursion,
@@ -22,8 +23,29 @@ from .linear import (
     simulate_statespace,
 )
 from .noise import add_sensor_noise, noise_to_signal_ratio
+from .nonlinear import (
+    AmplitudeDependentDamping,
+    CoulombFriction,
+    CubicStiffness,
+    DeadBand,
+    NonlinearElement,
+    NonlinearResult,
+    prepare_nonlinear,
+    simulate_nonlinear,
+)
 
 __all__ = [
+    "AmplitudeDependentDamping",
+    "CoulombFriction",
+    "CubicStiffness",
+    "DeadBand",
+    "NonlinearElement",
+    "NonlinearResult",
+    "delay_frf",
+    "delay_signal",
+    "fractional_delay_fir",
+    "prepare_nonlinear",
+    "simulate_nonlinear",
     "LtiRecursion",
     "add_sensor_noise",
     "band_limited_random",

@@ -1,7 +1,7 @@
 """The per-sample loop of :mod:`truthbench.simulate.nonlinear` (plain Python source).
 
 This module never imports numba. Its functions are written in the subset of Python that
-``numba.njit`` compiles, so the same source runs two ways with identical arithmetic:
+``numba.njit`` compiles, so the same source runs two ways with the same arithmetic:
 
 * interpreted, as the always-available fallback (``backend="numpy"``; slow, meant for
   small systems and for checking the compiled engine);
@@ -11,19 +11,27 @@ This module never imports numba. Its functions are written in the subset of Pyth
 
 The system is a set of *regimes*, one per subset ``S`` of stuck friction elements
 (``r`` is the bit mask of ``S``). In each regime the motion is linear,
-``xi' = A_r xi + B_r w`` with the input ``w = [u; f_nl]`` (friction forces of the stuck
-elements are replaced by their holding forces, which are outputs), and is advanced
-exactly for a piecewise-linear ``w``: diagonal complex modes plus a small dense block
+``xi' = A_r xi + B_r w`` with the input ``w = [u; f_nl]`` (the stuck elements' columns
+are zero: their holding forces are outputs), and is advanced exactly for a
+piecewise-linear ``w`` by diagonal complex modes ``z`` plus a small dense block ``xi``
 (see :mod:`truthbench.simulate.linear`). Every regime has the same output rows
-``[y (n_out); d (n_nl); v (n_nl); h (n_nl)]``: the outputs, the element displacements
-and velocities, and the holding forces (zero rows for elements that are not stuck).
+``[y (n_out); d; v; h; t (n_nl each)]``: outputs, element displacements and velocities,
+holding forces of the stuck elements, and the *trial* holding force of each slipping
+element (the force that would keep its velocity at zero, the others as they are).
 
 Per step the fast path advances the current regime over the whole step (precomputed
-weights), corrects the smooth element forces at the step end (Newton on the exact
-linear sensitivity), and checks the friction events at the step end. Only if an event
-occurred is the step redone by the event path: exact propagation to arbitrary times
-inside the step (``exp(s h)`` per mode, a small matrix exponential for the block),
-Illinois root finding of the first event, the switch, and so on to the step end.
+weights), corrects the smooth element forces at the step end (Newton on the exact linear
+sensitivity) and checks the friction gates at the step end: ``dir * v`` of a slipping
+element, ``F_c - |h|`` of a stuck one. If a gate went negative the step is redone by the
+event path, sub-interval by sub-interval: the first zero of each gate is estimated from
+a quintic Hermite interpolant (gate value and two time derivatives at both ends, all
+exact and cheap) and polished by Newton's method on the exact intra-step solution
+(``exp(s h)`` per mode, a small matrix exponential for the block) to ``1e-12 dt``.
+At a velocity zero the trial holding force decides: within ``F_c`` the element sticks
+(regime change: the state is mapped through the full state ``x``), beyond it the
+velocity reverses, which needs no regime change, only the superposition of the force
+jump on the step-end state. A stuck element whose holding force reaches ``F_c`` is
+released in the direction of ``-sign(h)``.
 """
 
 from __future__ import annotations
@@ -37,13 +45,20 @@ KIND_CUBIC = 1
 KIND_DEADBAND = 2
 KIND_QUADRATIC_DAMPING = 3
 
-_N_TAYLOR = 20
-#: 1/k! for k = 0..22 (Taylor series of phi1, phi2 and of the block exponential)
-_INV_FACT = np.array([1.0 / math.factorial(k) for k in range(_N_TAYLOR + 3)])
-#: relative size below which an event function value counts as rounding noise
+_N_TAYLOR = 14
+#: phi1/phi2 use their Taylor series below this |a| (error < 0.25**15/15! ~ 1e-21)
+_TAYLOR_RADIUS = 0.25
+#: 1/k! for k = 0..22
+_INV_FACT = np.array([1.0 / math.factorial(k) for k in range(23)])
+#: terms of the Taylor series in the block matrix exponential (argument norm <= 0.5)
+_EXPM_TERMS = 20
+#: relative size below which a gate value at a step end counts as rounding noise
 _EVENT_RTOL = 1e-12
-#: Illinois iterations before giving up on a root (bracket width ~ dt * 2**-60 by then)
-_MAX_ROOT_ITER = 200
+#: an event time is accepted when the Newton correction is below this fraction of dt
+_EVENT_TTOL = 1e-12
+_MAX_NEWTON_EVENT = 60
+#: samples of the Hermite interpolant searched for its first sign change
+_N_SCAN = 64
 
 
 # ----------------------------------------------------------------------------------
@@ -67,13 +82,13 @@ def smooth_force(kind, p0, p1, d, v):
 
 
 # ----------------------------------------------------------------------------------
-# exact propagation over a part of a step
+# small numerics
 # ----------------------------------------------------------------------------------
 
 
 def phi12(a):
     """``phi1(a) = (e^a - 1)/a`` and ``phi2(a) = (e^a - 1 - a)/a^2`` for complex ``a``."""
-    if abs(a) < 0.5:
+    if abs(a) < _TAYLOR_RADIUS:
         p1 = _INV_FACT[_N_TAYLOR + 1] + 0j
         p2 = _INV_FACT[_N_TAYLOR + 2] + 0j
         for k in range(_N_TAYLOR - 1, -1, -1):
@@ -82,6 +97,17 @@ def phi12(a):
         return p1, p2
     p1 = (np.exp(a) - 1.0) / a
     return p1, (p1 - 1.0) / a
+
+
+def matmul(a, b, out):
+    """``out = a @ b`` for small square matrices (plain loops: no BLAS binding)."""
+    n = a.shape[0]
+    for r in range(n):
+        for c in range(n):
+            acc = 0.0
+            for q in range(n):
+                acc += a[r, q] * b[q, c]
+            out[r, c] = acc
 
 
 def expm_small(m):
@@ -93,59 +119,117 @@ def expm_small(m):
         for r in range(n):
             col += abs(m[r, c])
         norm = max(norm, col)
-    s = 0
+    sq = 0
     while norm > 0.5:
         norm *= 0.5
-        s += 1
-    a = m * (0.5**s)
+        sq += 1
+    a = m * (0.5**sq)
     e = np.eye(n)
-    for k in range(_N_TAYLOR, 0, -1):
-        e = np.eye(n) + (a @ e) * (1.0 / k)
-    for _ in range(s):
-        e = e @ e
+    t = np.empty((n, n))
+    for k in range(_EXPM_TERMS, 0, -1):  # Horner: e <- I + a e / k
+        matmul(a, e, t)
+        for r in range(n):
+            for c in range(n):
+                e[r, c] = t[r, c] / k
+            e[r, r] += 1.0
+    for _ in range(sq):
+        matmul(e, e, t)
+        for r in range(n):
+            for c in range(n):
+                e[r, c] = t[r, c]
     return e
 
 
-def propagate(nm, nk, s, bm, tblk, bblk, zr, zi, xi, h, wa, wb, ozr, ozi, oxi):
-    """Exact state after time ``h`` for an input linear from ``wa`` to ``wb``.
+def solve_small(a, b):
+    """Solve ``a x = b`` for a small square ``a`` (Gauss, partial pivoting; copies)."""
+    n = a.shape[0]
+    m = a.copy()
+    x = b.copy()
+    for col in range(n):
+        piv = col
+        for r in range(col + 1, n):
+            if abs(m[r, col]) > abs(m[piv, col]):
+                piv = r
+        if piv != col:
+            for c in range(n):
+                tmp = m[col, c]
+                m[col, c] = m[piv, c]
+                m[piv, c] = tmp
+            tmp = x[col]
+            x[col] = x[piv]
+            x[piv] = tmp
+        for r in range(col + 1, n):
+            fac = m[r, col] / m[col, col]
+            if fac != 0.0:
+                for c in range(col, n):
+                    m[r, c] -= fac * m[col, c]
+                x[r] -= fac * x[col]
+    for r in range(n - 1, -1, -1):
+        acc = x[r]
+        for c in range(r + 1, n):
+            acc -= m[r, c] * x[c]
+        x[r] = acc / m[r, r]
+    return x
 
-    Writes the modal state to ``ozr``/``ozi`` and the block state to ``oxi``.
-    """
-    n_w = wa.shape[0]
+
+def hermite_first_root(g0, d0, c0, g1, d1, c1):
+    """First zero in ``(0, 1]`` of the quintic with value, slope and curvature ``g0, d0,
+    c0`` at 0 and ``g1, d1, c1`` at 1 (``g1 < 0``); scanned, then bisected."""
+    a3 = 10.0 * (g1 - g0) - 6.0 * d0 - 4.0 * d1 - 1.5 * c0 + 0.5 * c1
+    a4 = 15.0 * (g0 - g1) + 8.0 * d0 + 7.0 * d1 + 1.5 * c0 - c1
+    a5 = 6.0 * (g1 - g0) - 3.0 * (d0 + d1) - 0.5 * (c0 - c1)
+    a2 = 0.5 * c0
+    lo = 0.0
+    hi = 1.0
+    for k in range(1, _N_SCAN + 1):
+        th = k / _N_SCAN
+        val = g0 + th * (d0 + th * (a2 + th * (a3 + th * (a4 + th * a5))))
+        if val <= 0.0:
+            hi = th
+            break
+        lo = th
+    for _ in range(60):
+        th = 0.5 * (lo + hi)
+        if hi - lo <= 1e-15:
+            break
+        val = g0 + th * (d0 + th * (a2 + th * (a3 + th * (a4 + th * a5))))
+        if val > 0.0:
+            lo = th
+        else:
+            hi = th
+    return hi
+
+
+# ----------------------------------------------------------------------------------
+# the regime recursions
+# ----------------------------------------------------------------------------------
+
+
+def advance(nm, nk, s, tblk, za, xa, qa, qd, ga, gd, h, oz, ox):
+    """Exact state after time ``h`` from ``(za, xa)``; modal input ``qa + qd t``, block
+    input ``ga + gd t``. Writes ``oz`` (complex) and ``ox``."""
     for i in range(nm):
-        qa = 0j
-        qb = 0j
-        for p in range(n_w):
-            qa += bm[i, p] * wa[p]
-            qb += bm[i, p] * wb[p]
         a = s[i] * h
         p1, p2 = phi12(a)
-        z = complex(zr[i], zi[i]) * np.exp(a) + h * ((p1 - p2) * qa + p2 * qb)
-        ozr[i] = z.real
-        ozi[i] = z.imag
+        oz[i] = za[i] * np.exp(a) + h * (p1 * qa[i] + (p2 * h) * qd[i])
     if nk > 0:
         aug = np.zeros((nk + 2, nk + 2))
         for q in range(nk):
             for c in range(nk):
                 aug[q, c] = h * tblk[q, c]
-            g0 = 0.0
-            g1 = 0.0
-            for p in range(n_w):
-                g0 += bblk[q, p] * wa[p]
-                g1 += bblk[q, p] * (wb[p] - wa[p])
-            aug[q, nk] = h * g0
-            aug[q, nk + 1] = h * g1
+            aug[q, nk] = h * ga[q]
+            aug[q, nk + 1] = h * h * gd[q]
         aug[nk + 1, nk] = 1.0
         e = expm_small(aug)
         for q in range(nk):
             acc = e[q, nk]
             for c in range(nk):
-                acc += e[q, c] * xi[c]
-            oxi[q] = acc
+                acc += e[q, c] * xa[c]
+            ox[q] = acc
 
 
 def row_value(nm, nk, cmr, cmi, ck, dr, row, zr, zi, xi, w):
-    """One output row ``Re(cm z) + Ck xi + D w`` of the current regime."""
+    """One output row ``Re(cm z) + Ck xi + D w`` (modal state as real/imag arrays)."""
     acc = 0.0
     for i in range(nm):
         acc += cmr[row, i] * zr[i] - cmi[row, i] * zi[i]
@@ -156,16 +240,53 @@ def row_value(nm, nk, cmr, cmi, ck, dr, row, zr, zi, xi, w):
     return acc
 
 
-def row_scale(nm, nk, cmr, cmi, ck, dr, row, zr, zi, xi, w):
-    """Sum of the magnitudes of the terms of a row: the size of its rounding error."""
-    acc = 0.0
+def row_derivs(nm, nk, s, tblk, cm, ck, dr, row, z, xi, w, q, qd, gb, gd, wd):
+    """A row and its first two time derivatives at state ``(z, xi)``, input ``w``
+    (rate ``wd``), modal input ``q`` (rate ``qd``), block input ``gb`` (rate ``gd``).
+
+    Also returns the sum of magnitudes of the row's terms (its rounding scale).
+    """
+    v0 = 0.0
+    v1 = 0.0
+    v2 = 0.0
+    scale = 0.0
     for i in range(nm):
-        acc += abs(cmr[row, i] * zr[i]) + abs(cmi[row, i] * zi[i])
-    for q in range(nk):
-        acc += abs(ck[row, q] * xi[q])
+        c = cm[row, i]
+        z1 = s[i] * z[i] + q[i]
+        z2 = s[i] * z1 + qd[i]
+        t0 = c * z[i]
+        v0 += t0.real
+        v1 += (c * z1).real
+        v2 += (c * z2).real
+        scale += abs(t0.real)
+    for k in range(nk):
+        x1 = gb[k]
+        x1d = gd[k]
+        for c2 in range(nk):
+            x1 += tblk[k, c2] * xi[c2]
+        for c2 in range(nk):
+            # T (T xi + g) + g'
+            acc = 0.0
+            for c3 in range(nk):
+                acc += tblk[c2, c3] * xi[c3]
+            x1d += tblk[k, c2] * (acc + gb[c2])
+        v0 += ck[row, k] * xi[k]
+        v1 += ck[row, k] * x1
+        v2 += ck[row, k] * x1d
+        scale += abs(ck[row, k] * xi[k])
     for p in range(w.shape[0]):
-        acc += abs(dr[row, p] * w[p])
-    return acc
+        v0 += dr[row, p] * w[p]
+        v1 += dr[row, p] * wd[p]
+        scale += abs(dr[row, p] * w[p])
+    return v0, v1, v2, scale
+
+
+def gate(stuck, sgn, fc, v0, v1, v2):
+    """Event gate and its derivatives from a row: ``sgn v`` (slip) or ``F_c - |h|``."""
+    if stuck:
+        sg = 1.0 if v0 >= 0.0 else -1.0
+        return fc - abs(v0), -sg * v1, -sg * v2
+    return sgn * v0, sgn * v1, sgn * v2
 
 
 def reconstruct(nm, nk, recr, reci, recb, zr, zi, xi, x):
@@ -214,9 +335,10 @@ def settle(mask, forced, x, w, n_in, kind, par, fbit, hx, hw, dirs, last_dir, n_
     """Make the stuck set consistent at one instant.
 
     Holding forces ``h = Hx x + Hw w`` of the regime ``mask`` are computed; while some
-    stuck element needs more than its friction force (the largest ratio first, or the
-    element ``forced`` if it is >= 0), it is released in the direction ``-sign(h)``.
-    ``w`` (friction entries) and ``dirs`` are updated in place. Returns the new mask.
+    stuck element needs more than its friction force (the element ``forced`` first if it
+    is >= 0, then the largest ratio ``|h|/F_c``), it is released in the direction
+    ``-sign(h)``. ``w`` (friction entries), ``dirs`` and the counters are updated in
+    place. Returns the new mask.
     """
     n = x.shape[0]
     n_w = w.shape[0]
@@ -257,52 +379,364 @@ def settle(mask, forced, x, w, n_in, kind, par, fbit, hx, hw, dirs, last_dir, n_
     return mask
 
 
-def root(
-    nm, nk, s, bm, tblk, bblk, cmr, cmi, ck, dr, row, sgn, is_stuck, fc, zr, zi, xi, ta, dt,
-    g_lo, g_hi, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w, wt, tzr, tzi, txi,
+def shift(nm, nk, s, tblk, z, xi, q, qd, g, gd, d, oz, ox):
+    """State after a tiny time ``d`` by its Taylor series to third order (exact to
+    rounding when ``max |s| d <= 1e-4``): no exponentials."""
+    d2 = 0.5 * d * d
+    d3 = d2 * d / 3.0
+    for i in range(nm):
+        z1 = s[i] * z[i] + q[i]
+        z2 = s[i] * z1 + qd[i]
+        oz[i] = z[i] + d * z1 + d2 * z2 + d3 * (s[i] * z2)
+    if nk > 0:
+        x1 = np.empty(nk)
+        x2 = np.empty(nk)
+        for k in range(nk):
+            acc = g[k]
+            for c in range(nk):
+                acc += tblk[k, c] * xi[c]
+            x1[k] = acc
+        for k in range(nk):
+            acc = gd[k]
+            for c in range(nk):
+                acc += tblk[k, c] * x1[c]
+            x2[k] = acc
+        for k in range(nk):
+            acc = 0.0
+            for c in range(nk):
+                acc += tblk[k, c] * x2[c]
+            ox[k] = xi[k] + d * x1[k] + d2 * x2[k] + d3 * acc
+
+
+def hot_rows(nm, nk, cmr, cmi, ck, dr, n_hot, zr, zi, xi, w, out):
+    """The first ``n_hot`` rows (a multiple of 4) at a state, four at a time."""
+    for o in range(0, n_hot, 4):
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        for i in range(nm):
+            a = zr[i]
+            b = zi[i]
+            s0 += cmr[o, i] * a - cmi[o, i] * b
+            s1 += cmr[o + 1, i] * a - cmi[o + 1, i] * b
+            s2 += cmr[o + 2, i] * a - cmi[o + 2, i] * b
+            s3 += cmr[o + 3, i] * a - cmi[o + 3, i] * b
+        out[o] = s0
+        out[o + 1] = s1
+        out[o + 2] = s2
+        out[o + 3] = s3
+    for o in range(n_hot):
+        acc = out[o]
+        for q in range(nk):
+            acc += ck[o, q] * xi[q]
+        for p in range(w.shape[0]):
+            acc += dr[o, p] * w[p]
+        out[o] = acc
+
+
+def record(jr, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs, is_smooth,
+           wb_s, fsm, y, fo, disp, vel, stuck):
+    """Store sample ``jr`` from the rows at the step end; update the smooth forces."""
+    for o in range(n_out):
+        y[o, jr] = hot[o]
+    for e in range(fsm.shape[0]):
+        disp[e, jr] = hot[row_d + e]
+        vel[e, jr] = hot[row_v + e]
+        if is_smooth[e]:
+            fsm[e] = wb_s[n_in + e]
+            fo[e, jr] = fsm[e]
+        elif (mask >> fbit[e]) & 1:
+            fo[e, jr] = hot[row_h + e]
+            stuck[e, jr] = True
+        else:
+            fo[e, jr] = -par[e, 0] * dirs[e]
+
+
+def event_step(
+    j, dt, mask, n_in, n_hot, row_v, row_h, row_t, max_events, nm_a, nk_a, smax_a, s_a,
+    bm_a, cm_a, cmr_a, cmi_a, recr_a, reci_a, tomr_a, tomi_a, tblk_a, bblk_a, ck_a, recb_a,
+    tob_a, dr_a, hx, hw, kind, par, fbit, dirs, last_dir, fresh, n_rev, n_stick, wa_s, wb_s,
+    zr0, zi0, xi0, zr, zi, xi, hot, cz, rz, wz, x,
 ):
-    """First zero of an event gate in ``(ta, dt]`` by the Illinois method.
+    """Redo step ``j`` exactly, event by event (see the module docstring).
 
-    The gate is ``sgn * v`` (slipping element) or ``F_c - |h|`` (stuck element) on the
-    exact intra-step solution from the state ``(zr, zi, xi)`` at ``ta`` with input ``w``
-    there; ``g_lo >= 0`` at ``ta`` and ``g_hi < 0`` at ``dt``. Returns the right end of
-    the final bracket (the gate is <= 0 there: just past the event), to within
-    ``1e-14 dt``.
+    On entry ``(zr0, zi0, xi0)`` is the state at the step start and ``(zr, zi, xi)`` the
+    fast path's state at the step end, both in the regime ``mask``; on return
+    ``(zr, zi, xi)`` and ``hot`` hold the step end in the final regime. ``cz``, ``rz``,
+    ``wz`` and ``x`` are scratch. Returns ``(mask, fail)``, ``fail = j`` if more than
+    ``max_events`` events occurred, else -1.
     """
-    lo = ta
-    hi = dt
-    side = 0
-    for _ in range(_MAX_ROOT_ITER):
-        if hi - lo <= 1e-14 * dt:
+    r = mask
+    n_nl = kind.shape[0]
+    n_w = wa_s.shape[0]
+    fail = -1
+    za = cz[0]
+    ze = cz[1]
+    zt = cz[2]
+    zs = cz[3]
+    zu = cz[4]
+    qa = cz[5]
+    qd = cz[6]
+    qt = cz[7]
+    qe = cz[8]
+    zero_m = cz[9]
+    xa = rz[0]
+    xe = rz[1]
+    xt = rz[2]
+    xs = rz[3]
+    xu = rz[4]
+    ga = rz[5]
+    gd = rz[6]
+    gt = rz[7]
+    ge = rz[8]
+    zero_k = rz[9]
+    w = wz[0]
+    w2 = wz[1]
+    wd = wz[2]
+    nm = nm_a[r]
+    nk = nk_a[r]
+    ta = 0.0
+    for i in range(nm):
+        za[i] = complex(zr0[i], zi0[i])
+        ze[i] = complex(zr[i], zi[i])
+    for q in range(nk):
+        xa[q] = xi0[q]
+        xe[q] = xi[q]
+    for e in range(n_nl):
+        fresh[e] = 0
+    n_ev = 0
+    while True:
+        nm = nm_a[r]
+        nk = nk_a[r]
+        s = s_a[r]
+        bm = bm_a[r]
+        tblk = tblk_a[r]
+        bblk = bblk_a[r]
+        cm = cm_a[r]
+        cmr = cmr_a[r]
+        cmi = cmi_a[r]
+        ck = ck_a[r]
+        dr = dr_a[r]
+        smax = smax_a[r]
+        span = dt - ta
+        if span <= 0.0:
             break
-        if g_lo > 0.0:
-            t = hi - g_hi * (hi - lo) / (g_hi - g_lo)
+        # inputs at the interval ends and their rates
+        fill_input(ta / dt, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w)
+        fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
+        for p in range(n_w):
+            wd[p] = (w2[p] - w[p]) / span
+        for i in range(nm):
+            acc_a = 0j
+            acc_e = 0j
+            for p in range(n_w):
+                acc_a += bm[i, p] * w[p]
+                acc_e += bm[i, p] * w2[p]
+            qa[i] = acc_a
+            qe[i] = acc_e
+            qd[i] = (acc_e - acc_a) / span
+        for q in range(nk):
+            acc_a = 0.0
+            acc_e = 0.0
+            for p in range(n_w):
+                acc_a += bblk[q, p] * w[p]
+                acc_e += bblk[q, p] * w2[p]
+            ga[q] = acc_a
+            ge[q] = acc_e
+            gd[q] = (acc_e - acc_a) / span
+        # the first event among the gates that are clearly negative at the end
+        t_ev = 2.0 * dt
+        e_ev = -1
+        for e in range(n_nl):
+            if kind[e] != KIND_COULOMB:
+                continue
+            is_stuck = (mask >> fbit[e]) & 1
+            row = row_h + e if is_stuck else row_v + e
+            sgn = 1.0 if is_stuck else dirs[e]
+            fc = par[e, 0]
+            v0, v1, v2, sc = row_derivs(nm, nk, s, tblk, cm, ck, dr, row, ze, xe, w2, qe,
+                                        qd, ge, gd, wd)
+            g_e, d_e, c_e = gate(is_stuck, sgn, fc, v0, v1, v2)
+            tol = _EVENT_RTOL * (max(sc, fc) if is_stuck else sc)
+            if not g_e < -tol:
+                continue
+            v0, v1, v2, sc = row_derivs(nm, nk, s, tblk, cm, ck, dr, row, za, xa, w, qa,
+                                        qd, ga, gd, wd)
+            g_a, d_a, c_a = gate(is_stuck, sgn, fc, v0, v1, v2)
+            if g_a <= 0.0 and fresh[e] == 0:
+                t_root = ta  # already past the event at the interval start
+                for i in range(nm):
+                    zt[i] = za[i]
+                for q in range(nk):
+                    xt[q] = xa[q]
+            else:
+                # quintic Hermite estimate, then Newton (second order) on the exact
+                # intra-step solution; a last tiny step by the state's Taylor series
+                g_a = max(g_a, 0.0)
+                th = hermite_first_root(g_a, d_a * span, c_a * span * span, g_e,
+                                        d_e * span, c_e * span * span)
+                lo = ta
+                hi = dt
+                t_next = ta + th * span
+                t_root = t_next
+                for _ in range(_MAX_NEWTON_EVENT):
+                    t_root = t_next  # evaluated now (its state: zt, xt)
+                    h = t_root - ta
+                    advance(nm, nk, s, tblk, za, xa, qa, qd, ga, gd, h, zt, xt)
+                    for p in range(n_w):
+                        w2[p] = w[p] + wd[p] * h
+                    for i in range(nm):
+                        qt[i] = qa[i] + qd[i] * h
+                    for q in range(nk):
+                        gt[q] = ga[q] + gd[q] * h
+                    v0, v1, v2, sc = row_derivs(nm, nk, s, tblk, cm, ck, dr, row, zt, xt,
+                                                w2, qt, qd, gt, gd, wd)
+                    g_t, d_t, c_t = gate(is_stuck, sgn, fc, v0, v1, v2)
+                    if g_t > 0.0:
+                        lo = t_root
+                    else:
+                        hi = t_root
+                    if g_t == 0.0:
+                        break
+                    if d_t != 0.0:
+                        disc = d_t * d_t - 2.0 * g_t * c_t
+                        if disc >= 0.0:
+                            den = d_t + math.copysign(math.sqrt(disc), d_t)
+                            step = -2.0 * g_t / den
+                        else:
+                            step = -g_t / d_t
+                        t_next = t_root + step
+                    else:
+                        t_next = 0.5 * (lo + hi)
+                    if not lo < t_next < hi:
+                        t_next = 0.5 * (lo + hi)
+                    step = t_next - t_root
+                    if abs(step) <= _EVENT_TTOL * dt:
+                        break
+                    if abs(step) * smax <= 1e-4:
+                        shift(nm, nk, s, tblk, zt, xt, qt, qd, gt, gd, step, zu, xu)
+                        for i in range(nm):
+                            zt[i] = zu[i]
+                        for q in range(nk):
+                            xt[q] = xu[q]
+                        t_root = t_next
+                        break
+                fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
+            if t_root < t_ev:
+                t_ev = t_root
+                e_ev = e
+                for i in range(nm):
+                    zs[i] = zt[i]
+                for q in range(nk):
+                    xs[q] = xt[q]
+        if e_ev < 0:
+            break
+        n_ev += 1
+        if n_ev > max_events:
+            fail = j
+            break
+        # move to the event
+        ta = t_ev
+        span = dt - ta
+        for i in range(nm):
+            za[i] = zs[i]
+        for q in range(nk):
+            xa[q] = xs[q]
+        for e in range(n_nl):
+            fresh[e] = 0
+        fill_input(ta / dt, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w)
+        e = e_ev
+        if not (mask >> fbit[e]) & 1:
+            for i in range(nm):
+                zr[i] = za[i].real
+                zi[i] = za[i].imag
+            trial = row_value(nm, nk, cmr, cmi, ck, dr, row_t + e, zr, zi, xa, w)
+            if abs(trial) > par[e, 0]:
+                # reversal: same regime; superpose the force jump on the end state
+                new_dir = -1.0 if trial > 0.0 else 1.0
+                jump = -par[e, 0] * (new_dir - dirs[e])
+                dirs[e] = new_dir
+                if last_dir[e] != 0.0 and last_dir[e] != new_dir:
+                    n_rev[e] += 1
+                last_dir[e] = new_dir
+                fresh[e] = 1
+                p = n_in + e
+                if jump != 0.0 and span > 0.0:
+                    for i in range(nm):
+                        qt[i] = bm[i, p] * jump
+                    for q in range(nk):
+                        gt[q] = bblk[q, p] * jump
+                    advance(nm, nk, s, tblk, zero_m, zero_k, qt, zero_m, gt, zero_k,
+                            span, zt, xt)
+                    for i in range(nm):
+                        ze[i] += zt[i]
+                    for q in range(nk):
+                        xe[q] += xt[q]
+                continue
+            trial_mask = mask | (1 << fbit[e])
+            forced = -1
         else:
-            t = 0.5 * (lo + hi)
-        if not lo < t < hi:
-            t = 0.5 * (lo + hi)
-            if not lo < t < hi:
-                break
-        fill_input(t / dt, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, wt)
-        propagate(nm, nk, s, bm, tblk, bblk, zr, zi, xi, t - ta, w, wt, tzr, tzi, txi)
-        val = row_value(nm, nk, cmr, cmi, ck, dr, row, tzr, tzi, txi, wt)
-        g = fc - abs(val) if is_stuck else sgn * val
-        if g > 0.0:
-            lo = t
-            g_lo = g
-            if side == 1:
-                g_hi *= 0.5
-            side = 1
-        else:
-            hi = t
-            g_hi = g
-            if g == 0.0:
-                break
-            if side == -1:
-                g_lo *= 0.5
-            side = -1
-    return hi
-
+            trial_mask = mask
+            forced = e
+        # stick or release: through the full state into the new regime
+        for i in range(nm):
+            zr[i] = za[i].real
+            zi[i] = za[i].imag
+        reconstruct(nm, nk, recr_a[r], reci_a[r], recb_a[r], zr, zi, xa, x)
+        fill_input(ta / dt, wa_s, wb_s, n_in, kind, par, dirs, trial_mask, fbit, w)
+        new = settle(trial_mask, forced, x, w, n_in, kind, par, fbit, hx, hw, dirs,
+                     last_dir, n_rev, fresh)
+        if forced < 0 and (new >> fbit[e]) & 1:
+            fresh[e] = 1
+        for e2 in range(n_nl):
+            if kind[e2] == KIND_COULOMB and (new >> fbit[e2]) & 1 \
+                    and not (mask >> fbit[e2]) & 1:
+                n_stick[e2] += 1
+        if new != mask:
+            mask = new
+            r = new
+            nm = nm_a[r]
+            nk = nk_a[r]
+            to_regime(nm, nk, tomr_a[r], tomi_a[r], tob_a[r], x, zr, zi, xa)
+            for i in range(nm):
+                za[i] = complex(zr[i], zi[i])
+        # the end state in the (new) regime
+        s = s_a[r]
+        bm = bm_a[r]
+        tblk = tblk_a[r]
+        bblk = bblk_a[r]
+        fill_input(ta / dt, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w)
+        fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
+        for i in range(nm):
+            acc_a = 0j
+            acc_e = 0j
+            for p in range(n_w):
+                acc_a += bm[i, p] * w[p]
+                acc_e += bm[i, p] * w2[p]
+            qa[i] = acc_a
+            qd[i] = (acc_e - acc_a) / span if span > 0.0 else 0j
+        for q in range(nk):
+            acc_a = 0.0
+            acc_e = 0.0
+            for p in range(n_w):
+                acc_a += bblk[q, p] * w[p]
+                acc_e += bblk[q, p] * w2[p]
+            ga[q] = acc_a
+            gd[q] = (acc_e - acc_a) / span if span > 0.0 else 0.0
+        advance(nm, nk, s, tblk, za, xa, qa, qd, ga, gd, span, ze, xe)
+    if fail >= 0:
+        return mask, fail
+    nm = nm_a[r]
+    nk = nk_a[r]
+    for i in range(nm):
+        zr[i] = ze[i].real
+        zi[i] = ze[i].imag
+    for q in range(nk):
+        xi[q] = xe[q]
+    fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
+    hot_rows(nm, nk, cmr_a[r], cmi_a[r], ck_a[r], dr_a[r], n_hot, zr, zi, xi, w2, hot)
+    return mask, fail
 
 
 # ----------------------------------------------------------------------------------
@@ -311,13 +745,14 @@ def root(
 
 
 def run(
-    u, dt, x0, nm_a, nk_a, s_a, bm_a, lamr_a, lami_a, g0r_a, g0i_a, g1r_a, g1i_a,
-    cmr_a, cmi_a, recr_a, reci_a, tomr_a, tomi_a, tblk_a, bblk_a, ad_a, bd0_a, bd1_a,
-    ck_a, recb_a, tob_a, dr_a, hx, hw, gam_a, kind, par, fbit, cd, cv, max_newton,
-    max_events,
-):  # noqa: PLR0912, PLR0915 - one fused loop on purpose (it is compiled as a whole)
-    """Simulate; see :func:`truthbench.simulate.nonlinear.NonlinearSystem.simulate`.
+    u, dt, x0, n_out, nm_a, nk_a, smax_a, s_a, bm_a, lamr_a, lami_a, g0r_a, g0i_a, g1r_a,
+    g1i_a, cm_a, cmr_a, cmi_a, recr_a, reci_a, tomr_a, tomi_a, tblk_a, bblk_a, ad_a,
+    bd0_a, bd1_a, ck_a, recb_a, tob_a, dr_a, hx, hw, sens_a, kind, par, fbit, cd, cv,
+    max_newton, max_events,
+):
+    """Simulate; see :meth:`truthbench.simulate.nonlinear.NonlinearSystem.simulate`.
 
+    Rows of every regime: ``[y; d; v; h; zero padding to a multiple of 4; t]``.
     Returns ``(y, f, disp, vel, stuck, n_stick, n_rev, fail)`` where ``fail`` is -1 or
     the sample index at which the event limit per step was exceeded.
     """
@@ -325,10 +760,11 @@ def run(
     n_nl = kind.shape[0]
     n_w = n_in + n_nl
     n_rows = cmr_a.shape[1]
-    n_out = n_rows - 3 * n_nl
+    n_hot = n_rows - n_nl
     row_d = n_out
     row_v = n_out + n_nl
     row_h = n_out + 2 * n_nl
+    row_t = n_hot
     n = x0.shape[0]
     m_max = lamr_a.shape[1]
     k_max = ad_a.shape[1]
@@ -345,37 +781,38 @@ def run(
     dirs = np.zeros(n_nl)
     last_dir = np.zeros(n_nl)
     fresh = np.zeros(n_nl, dtype=np.int64)
-    fsm_a = np.zeros(n_nl)  # smooth forces at the step start
+    fsm = np.zeros(n_nl)  # smooth forces at the step start
     is_smooth = np.zeros(n_nl, dtype=np.bool_)
     n_smooth = 0
+    n_fric = 0
     for e in range(n_nl):
-        if kind[e] != KIND_COULOMB:
+        if kind[e] == KIND_COULOMB:
+            n_fric += 1
+        else:
             is_smooth[e] = True
             n_smooth += 1
 
-    wa_s = np.zeros(n_w)  # step-start input (u and smooth forces; friction filled in)
+    wa_s = np.zeros(n_w)  # step-start input (u and smooth forces)
     wb_s = np.zeros(n_w)  # step-end input
-    w = np.zeros(n_w)
-    w2 = np.zeros(n_w)
-    x_in = np.zeros(n_w)
+    wz = np.zeros((3, n_w))
+    w = wz[0]
+    w2 = wz[1]
+    hot = np.zeros(n_hot)
     x = np.zeros(n)
     zr = np.zeros(m_max)
     zi = np.zeros(m_max)
     xi = np.zeros(k_max)
-    nzr = np.zeros(m_max)
-    nzi = np.zeros(m_max)
+    zr0 = np.zeros(m_max)
+    zi0 = np.zeros(m_max)
+    xi0 = np.zeros(k_max)
     nxi = np.zeros(k_max)
-    tzr = np.zeros(m_max)
-    tzi = np.zeros(m_max)
-    txi = np.zeros(k_max)
     fr = np.zeros(m_max)
     fi = np.zeros(m_max)
+    cz = np.zeros((10, m_max), dtype=np.complex128)  # event-path scratch
+    rz = np.zeros((10, k_max))
     delta = np.zeros(n_nl)
-    dp = np.zeros(n_nl)
-    vp = np.zeros(n_nl)
     res = np.zeros(n_nl)
     jac = np.zeros((n_nl, n_nl))
-    gate = np.zeros(n_nl)
 
     # ---- initial regime -----------------------------------------------------------
     mask = 0
@@ -394,52 +831,29 @@ def run(
                 mask |= 1 << fbit[e]
             last_dir[e] = dirs[e]
         else:
-            fsm_a[e] = smooth_force(kind[e], par[e, 0], par[e, 1], de, ve)[0]
+            fsm[e] = smooth_force(kind[e], par[e, 0], par[e, 1], de, ve)[0]
     for p in range(n_in):
         wa_s[p] = u[p, 0]
     for e in range(n_nl):
-        wa_s[n_in + e] = fsm_a[e]
+        wa_s[n_in + e] = fsm[e]
     fill_input(0.0, wa_s, wa_s, n_in, kind, par, dirs, mask, fbit, w)
     mask = settle(mask, -1, x0, w, n_in, kind, par, fbit, hx, hw, dirs, last_dir, n_rev, fresh)
-    for e in range(n_nl):
-        fresh[e] = 0
     r = mask
-    nm = nm_a[r]
-    nk = nk_a[r]
-    to_regime(nm, nk, tomr_a[r], tomi_a[r], tob_a[r], x0, zr, zi, xi)
+    to_regime(nm_a[r], nk_a[r], tomr_a[r], tomi_a[r], tob_a[r], x0, zr, zi, xi)
+    for p in range(n_w):
+        wb_s[p] = wa_s[p]
+    fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
+    hot_rows(nm_a[r], nk_a[r], cmr_a[r], cmi_a[r], ck_a[r], dr_a[r], n_hot, zr, zi, xi, w2,
+             hot)
 
-    # record sample 0
-    fill_input(0.0, wa_s, wa_s, n_in, kind, par, dirs, mask, fbit, w)
-    for o in range(n_rows):
-        val = row_value(nm, nk, cmr_a[r], cmi_a[r], ck_a[r], dr_a[r], o, zr, zi, xi, w)
-        if o < n_out:
-            y[o, 0] = val
-        elif o < row_v:
-            disp[o - row_d, 0] = val
-        elif o < row_h:
-            vel[o - row_v, 0] = val
-        else:
-            e = o - row_h
-            if kind[e] == KIND_COULOMB and (mask >> fbit[e]) & 1:
-                fo[e, 0] = val
-                stuck[e, 0] = True
-    for e in range(n_nl):
-        if is_smooth[e]:
-            fo[e, 0] = fsm_a[e]
-        elif not stuck[e, 0]:
-            fo[e, 0] = -par[e, 0] * dirs[e]
-
-    # ---- the loop -------------------------------------------------------------------
-    for j in range(n_samples - 1):
-        for p in range(n_in):
-            wa_s[p] = u[p, j]
-            wb_s[p] = u[p, j + 1]
-        for e in range(n_nl):
-            wa_s[n_in + e] = fsm_a[e]
-            wb_s[n_in + e] = fsm_a[e]  # predictor for the smooth forces
-        fill_input(0.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w)
-        fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
-
+    record(0, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs, is_smooth, wb_s,
+           fsm, y, fo, disp, vel, stuck)
+    j = 0
+    while j < n_samples - 1:
+        # the regime's arrays, invariant in the inner loop (which leaves when the regime
+        # changes): loop-invariant views let LLVM vectorise the loops over modes
+        nm = nm_a[r]
+        nk = nk_a[r]
         lamr = lamr_a[r]
         lami = lami_a[r]
         g0r = g0r_a[r]
@@ -453,231 +867,166 @@ def run(
         ad = ad_a[r]
         bd0 = bd0_a[r]
         bd1 = bd1_a[r]
-
-        # -- fast path: the whole step in the current regime
-        for i in range(nm):
-            fr[i] = 0.0
-            fi[i] = 0.0
-        for p in range(n_w):
-            a0 = w[p]
-            a1 = w2[p]
-            if a0 == 0.0 and a1 == 0.0:
-                continue
+        sens = sens_a[r]
+        while j < n_samples - 1:
+            for p in range(n_in):
+                wa_s[p] = u[p, j]
+                wb_s[p] = u[p, j + 1]
+            for e in range(n_nl):
+                wa_s[n_in + e] = fsm[e]
+                wb_s[n_in + e] = fsm[e]  # predictor for the smooth forces
+            fill_input(0.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w)
+            fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
             for i in range(nm):
-                fr[i] += g0r[p, i] * a0 + g1r[p, i] * a1
-                fi[i] += g0i[p, i] * a0 + g1i[p, i] * a1
-        for i in range(nm):
-            a = zr[i]
-            b = zi[i]
-            nzr[i] = lamr[i] * a - lami[i] * b + fr[i]
-            nzi[i] = lamr[i] * b + lami[i] * a + fi[i]
-        for q in range(nk):
-            acc = 0.0
-            for c in range(nk):
-                acc += ad[q, c] * xi[c]
+                fr[i] = 0.0
+                fi[i] = 0.0
             for p in range(n_w):
-                acc += bd0[q, p] * w[p] + bd1[q, p] * w2[p]
-            nxi[q] = acc
-
-        # -- smooth forces at the step end: Newton on f = g(d(f), v(f)), linear sensitivity
-        if n_smooth > 0:
-            gam = gam_a[r]
-            for e in range(n_nl):
-                delta[e] = 0.0
-                if is_smooth[e]:
-                    dp[e] = row_value(nm, nk, cmr, cmi, ck, dr, row_d + e, nzr, nzi, nxi, w2)
-                    vp[e] = row_value(nm, nk, cmr, cmi, ck, dr, row_v + e, nzr, nzi, nxi, w2)
-            for _ in range(max_newton):
-                big = 0.0
-                for e in range(n_nl):
-                    for k2 in range(n_nl):
-                        jac[e, k2] = 0.0
-                    jac[e, e] = 1.0
-                    res[e] = 0.0
-                    if not is_smooth[e]:
-                        continue
-                    de = dp[e]
-                    ve = vp[e]
-                    for k2 in range(n_nl):
-                        de += gam[e, k2] * delta[k2]
-                        ve += gam[n_nl + e, k2] * delta[k2]
-                    fe, fd, fv = smooth_force(kind[e], par[e, 0], par[e, 1], de, ve)
-                    res[e] = fsm_a[e] + delta[e] - fe
-                    big = max(big, abs(fe))
-                    for k2 in range(n_nl):
-                        jac[e, k2] -= fd * gam[e, k2] + fv * gam[n_nl + e, k2]
-                if n_nl == 1:
-                    step = res[0] / jac[0, 0]
-                    delta[0] -= step
-                    change = abs(step)
-                else:
-                    stp = np.linalg.solve(jac, res)
-                    change = 0.0
-                    for e in range(n_nl):
-                        delta[e] -= stp[e]
-                        change = max(change, abs(stp[e]))
-                if change <= 1e-14 * big or change == 0.0:
-                    break
-            for e in range(n_nl):
-                de = delta[e]
-                if de == 0.0:
+                a0 = w[p]
+                a1 = w2[p]
+                if a0 == 0.0 and a1 == 0.0:
                     continue
-                p = n_in + e
-                wb_s[p] += de
-                w2[p] += de
                 for i in range(nm):
-                    nzr[i] += g1r[p, i] * de
-                    nzi[i] += g1i[p, i] * de
+                    fr[i] += g0r[p, i] * a0 + g1r[p, i] * a1
+                    fi[i] += g0i[p, i] * a0 + g1i[p, i] * a1
+            # advance the modes in place (few arrays in the loop: LLVM vectorises it) fused
+            # with the first four rows; the step-start state is kept for the event path
+            if n_fric > 0:
+                for i in range(nm):
+                    zr0[i] = zr[i]
+                    zi0[i] = zi[i]
                 for q in range(nk):
-                    nxi[q] += bd1[q, p] * de
-
-        # -- friction events at the step end?
-        event = False
-        for e in range(n_nl):
-            if kind[e] != KIND_COULOMB:
-                continue
-            if (mask >> fbit[e]) & 1:
-                he = row_value(nm, nk, cmr, cmi, ck, dr, row_h + e, nzr, nzi, nxi, w2)
-                gate[e] = par[e, 0] - abs(he)
-            else:
-                ve = row_value(nm, nk, cmr, cmi, ck, dr, row_v + e, nzr, nzi, nxi, w2)
-                gate[e] = dirs[e] * ve
-            if gate[e] < 0.0:
-                event = True
-
-        if not event:
+                    xi0[q] = xi[q]
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            s3 = 0.0
             for i in range(nm):
-                zr[i] = nzr[i]
-                zi[i] = nzi[i]
+                a = zr[i]
+                b = zi[i]
+                na = lamr[i] * a - lami[i] * b + fr[i]
+                nb = lamr[i] * b + lami[i] * a + fi[i]
+                zr[i] = na
+                zi[i] = nb
+                s0 += cmr[0, i] * na - cmi[0, i] * nb
+                s1 += cmr[1, i] * na - cmi[1, i] * nb
+                s2 += cmr[2, i] * na - cmi[2, i] * nb
+                s3 += cmr[3, i] * na - cmi[3, i] * nb
+            hot[0] = s0
+            hot[1] = s1
+            hot[2] = s2
+            hot[3] = s3
+            for o in range(4, n_hot, 4):
+                s0 = 0.0
+                s1 = 0.0
+                s2 = 0.0
+                s3 = 0.0
+                for i in range(nm):
+                    a = zr[i]
+                    b = zi[i]
+                    s0 += cmr[o, i] * a - cmi[o, i] * b
+                    s1 += cmr[o + 1, i] * a - cmi[o + 1, i] * b
+                    s2 += cmr[o + 2, i] * a - cmi[o + 2, i] * b
+                    s3 += cmr[o + 3, i] * a - cmi[o + 3, i] * b
+                hot[o] = s0
+                hot[o + 1] = s1
+                hot[o + 2] = s2
+                hot[o + 3] = s3
+            for q in range(nk):
+                acc = 0.0
+                for c in range(nk):
+                    acc += ad[q, c] * xi0[c]
+                for p in range(n_w):
+                    acc += bd0[q, p] * w[p] + bd1[q, p] * w2[p]
+                nxi[q] = acc
             for q in range(nk):
                 xi[q] = nxi[q]
-        else:
-            # -- event path: redo the step piecewise, exactly, from its start
-            ta = 0.0
-            n_ev = 0
-            for e in range(n_nl):
-                fresh[e] = 0
-            while True:
-                nm = nm_a[r]
-                nk = nk_a[r]
-                s = s_a[r]
-                bm = bm_a[r]
-                tblk = tblk_a[r]
-                bblk = bblk_a[r]
-                cmr = cmr_a[r]
-                cmi = cmi_a[r]
-                ck = ck_a[r]
-                dr = dr_a[r]
-                fill_input(ta / dt, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w)
-                fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
-                propagate(nm, nk, s, bm, tblk, bblk, zr, zi, xi, dt - ta, w, w2, nzr, nzi, nxi)
-                # first event among the elements whose gate is clearly negative at the end
-                t_ev = 2.0 * dt
-                e_ev = -1
-                for e in range(n_nl):
-                    if kind[e] != KIND_COULOMB:
-                        continue
-                    is_stuck = (mask >> fbit[e]) & 1
-                    row = row_h + e if is_stuck else row_v + e
-                    sgn = 1.0 if is_stuck else dirs[e]
-                    val = row_value(nm, nk, cmr, cmi, ck, dr, row, nzr, nzi, nxi, w2)
-                    g_end = par[e, 0] - abs(val) if is_stuck else sgn * val
-                    scale = row_scale(nm, nk, cmr, cmi, ck, dr, row, nzr, nzi, nxi, w2)
-                    if is_stuck:
-                        scale = max(scale, par[e, 0])
-                    tol = _EVENT_RTOL * scale
-                    if not g_end < -tol:
-                        continue
-                    # the gate at the interval start
-                    val = row_value(nm, nk, cmr, cmi, ck, dr, row, zr, zi, xi, w)
-                    g_a = par[e, 0] - abs(val) if is_stuck else sgn * val
-                    if g_a <= 0.0 and fresh[e] == 0:
-                        t_root = ta
-                    else:
-                        t_root = root(
-                            nm, nk, s, bm, tblk, bblk, cmr, cmi, ck, dr, row, sgn, is_stuck,
-                            par[e, 0], zr, zi, xi, ta, dt, max(g_a, 0.0), g_end, wa_s, wb_s,
-                            n_in, kind, par, dirs, mask, fbit, w, x_in, tzr, tzi, txi,
-                        )
-                    if t_root < t_ev:
-                        t_ev = t_root
-                        e_ev = e
-                if e_ev < 0:
-                    for i in range(nm):
-                        zr[i] = nzr[i]
-                        zi[i] = nzi[i]
-                    for q in range(nk):
-                        xi[q] = nxi[q]
-                    break
-                n_ev += 1
-                if n_ev > max_events:
-                    fail = j
-                    break
-                # state at the event
-                fill_input(t_ev / dt, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
-                if t_ev > ta:
-                    propagate(nm, nk, s, bm, tblk, bblk, zr, zi, xi, t_ev - ta, w, w2,
-                              tzr, tzi, txi)
-                    for i in range(nm):
-                        zr[i] = tzr[i]
-                        zi[i] = tzi[i]
-                    for q in range(nk):
-                        xi[q] = txi[q]
-                reconstruct(nm, nk, recr_a[r], reci_a[r], recb_a[r], zr, zi, xi, x)
-                for e in range(n_nl):
-                    fresh[e] = 0
-                if (mask >> fbit[e_ev]) & 1:
-                    new = settle(mask, e_ev, x, w2, n_in, kind, par, fbit, hx, hw, dirs,
-                                 last_dir, n_rev, fresh)
-                else:
-                    trial = mask | (1 << fbit[e_ev])
-                    fill_input(t_ev / dt, wa_s, wb_s, n_in, kind, par, dirs, trial, fbit, w2)
-                    new = settle(trial, -1, x, w2, n_in, kind, par, fbit, hx, hw, dirs,
-                                 last_dir, n_rev, fresh)
-                    if (new >> fbit[e_ev]) & 1:
-                        fresh[e_ev] = 1
-                for e in range(n_nl):
-                    if kind[e] == KIND_COULOMB and (new >> fbit[e]) & 1 and not (
-                        (mask >> fbit[e]) & 1
-                    ):
-                        n_stick[e] += 1
-                if new != mask:
-                    mask = new
-                    r = new
-                    nm = nm_a[r]
-                    nk = nk_a[r]
-                    to_regime(nm, nk, tomr_a[r], tomi_a[r], tob_a[r], x, zr, zi, xi)
-                ta = t_ev
-            if fail >= 0:
-                break
+            for o in range(n_hot):
+                acc = hot[o]
+                for q in range(nk):
+                    acc += ck[o, q] * xi[q]
+                for p in range(n_w):
+                    acc += dr[o, p] * w2[p]
+                hot[o] = acc
 
-        # -- record sample j+1
-        nm = nm_a[r]
-        nk = nk_a[r]
-        cmr = cmr_a[r]
-        cmi = cmi_a[r]
-        ck = ck_a[r]
-        dr = dr_a[r]
-        fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
-        for o in range(n_rows):
-            if o >= row_h:
-                e = o - row_h
-                if kind[e] != KIND_COULOMB or not (mask >> fbit[e]) & 1:
+            # -- smooth forces at the step end: Newton on f = g(d(f), v(f)) with the exact
+            #    linear sensitivity of the rows to the forces at the step end
+            if n_smooth > 0:
+                for e in range(n_nl):
+                    delta[e] = 0.0
+                for _ in range(max_newton):
+                    big = 0.0
+                    for e in range(n_nl):
+                        for k2 in range(n_nl):
+                            jac[e, k2] = 0.0
+                        jac[e, e] = 1.0
+                        res[e] = 0.0
+                        if not is_smooth[e]:
+                            continue
+                        de = hot[row_d + e]
+                        ve = hot[row_v + e]
+                        for k2 in range(n_nl):
+                            de += sens[row_d + e, k2] * delta[k2]
+                            ve += sens[row_v + e, k2] * delta[k2]
+                        fe, fd, fv = smooth_force(kind[e], par[e, 0], par[e, 1], de, ve)
+                        res[e] = fsm[e] + delta[e] - fe
+                        big = max(big, abs(fe))
+                        for k2 in range(n_nl):
+                            jac[e, k2] -= fd * sens[row_d + e, k2] + fv * sens[row_v + e, k2]
+                    if n_nl == 1:
+                        stp0 = res[0] / jac[0, 0]
+                        delta[0] -= stp0
+                        change = abs(stp0)
+                    else:
+                        stp = solve_small(jac, res)
+                        change = 0.0
+                        for e in range(n_nl):
+                            delta[e] -= stp[e]
+                            change = max(change, abs(stp[e]))
+                    if change <= 1e-14 * big or change == 0.0:
+                        break
+                for e in range(n_nl):
+                    de = delta[e]
+                    if de == 0.0:
+                        continue
+                    p = n_in + e
+                    wb_s[p] += de
+                    w2[p] += de
+                    for i in range(nm):
+                        zr[i] += g1r[p, i] * de
+                        zi[i] += g1i[p, i] * de
+                    for q in range(nk):
+                        xi[q] += bd1[q, p] * de
+                    for o in range(n_hot):
+                        hot[o] += sens[o, e] * de
+
+            # -- friction gates at the step end
+            event = False
+            for e in range(n_nl):
+                if kind[e] != KIND_COULOMB:
                     continue
-            val = row_value(nm, nk, cmr, cmi, ck, dr, o, zr, zi, xi, w2)
-            if o < n_out:
-                y[o, j + 1] = val
-            elif o < row_v:
-                disp[o - row_d, j + 1] = val
-            elif o < row_h:
-                vel[o - row_v, j + 1] = val
-            else:
-                fo[o - row_h, j + 1] = val
-                stuck[o - row_h, j + 1] = True
-        for e in range(n_nl):
-            if is_smooth[e]:
-                fsm_a[e] = wb_s[n_in + e]
-                fo[e, j + 1] = fsm_a[e]
-            elif not stuck[e, j + 1]:
-                fo[e, j + 1] = -par[e, 0] * dirs[e]
+                if (mask >> fbit[e]) & 1:
+                    if par[e, 0] - abs(hot[row_h + e]) < 0.0:
+                        event = True
+                elif dirs[e] * hot[row_v + e] < 0.0:
+                    event = True
+
+            if event:
+                # -- event path: the step piece by piece from its start
+                mask, fail = event_step(
+                    j, dt, mask, n_in, n_hot, row_v, row_h, row_t, max_events, nm_a, nk_a,
+                    smax_a, s_a, bm_a, cm_a, cmr_a, cmi_a, recr_a, reci_a, tomr_a, tomi_a,
+                    tblk_a, bblk_a, ck_a, recb_a, tob_a, dr_a, hx, hw, kind, par, fbit, dirs,
+                    last_dir, fresh, n_rev, n_stick, wa_s, wb_s, zr0, zi0, xi0, zr, zi, xi,
+                    hot, cz, rz, wz, x,
+                )
+                if fail >= 0:
+                    break
+            j += 1
+            record(j, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs,
+                   is_smooth, wb_s, fsm, y, fo, disp, vel, stuck)
+            if mask != r:
+                break
+        if fail >= 0:
+            break
+        r = mask
     return y, fo, disp, vel, stuck, n_stick, n_rev, fail

@@ -1,0 +1,904 @@
+"""Sampled simulation of a linear structure with local nonlinear elements.
+
+The system is
+
+    x' = A x + B u + B_nl f_nl,        y = C x + D u + D_nl f_nl,
+
+with the input ``u`` known at ``t_j = j dt`` and linear in between (first-order hold,
+as :func:`~truthbench.simulate.linear.simulate_lti`). Each nonlinear element ``e``
+reads a local displacement ``d_e = c_d,e x`` and velocity ``v_e = c_v,e x`` (the rows of
+:class:`NonlinearElement`) and pushes back with the force ``f_e`` through the column
+``b_e`` of ``B_nl`` (and ``D_nl`` for outputs, such as accelerations, that see the force
+directly). SI units: N, m, m/s, or N m, rad, rad/s at a rotational degree of freedom.
+
+Element laws (:data:`LAWS`)
+---------------------------
+* :class:`CoulombFriction` -- ``f = -F_c sign(v)`` while slipping; stuck while the force
+  that holds ``v = 0`` is within ``F_c`` (static = kinetic friction).
+* :class:`CubicStiffness` -- ``f = -k3 d^3``.
+* :class:`DeadBand` -- ``f = -k (d - sign(d) gap)`` for ``|d| > gap``, else 0.
+* :class:`AmplitudeDependentDamping` -- quadratic damping ``f = -c2 |v| v``.
+
+Method
+------
+**Friction is exact (event-driven switching, no regularisation).** While every friction
+element keeps its state (slipping one way, or stuck) the motion is linear: a slipping
+element is a constant force, a stuck one is a constraint ``v_e = 0`` whose holding force
+``h = -(c_v B_e)^-1 c_v (A x + B u + ...)`` follows from ``c_v x' = 0``. So each subset
+``S`` of stuck elements is a linear *regime* on the subspace ``c_v,S x = 0``
+(``x = Q xi``, ``Q`` an orthonormal basis of that null space), with dynamics
+``xi' = Q^T P A Q xi + Q^T P [B, B_nl] w``, ``P = I - B_S (C_v,S B_S)^-1 C_v,S``. Every
+regime is prepared once (all ``2^n_friction`` of them) and advanced exactly for the
+piecewise-linear input by diagonal complex modal recursions plus, for defective
+eigenvalues such as a free rigid-body rotation at a slipping hub bearing, a small dense
+block, exactly as :mod:`~truthbench.simulate.linear` does. Per step, the current regime
+advances over the whole step; if a slipping element's velocity changed sign or a stuck
+element's holding force exceeds ``F_c`` at the step end, the step is redone from its
+start on the *exact* intra-step solution (``exp(s h)`` per mode, a matrix exponential of
+the small block): the first event is located by the Illinois method to ``1e-14 dt``,
+the state is mapped to the new regime there (stick: the velocity is projected to zero,
+which it is to root-finding accuracy; release: the element slips in the direction of
+``-sign(h)``), and so on to the step end. A stick-slip response is therefore exact up
+to the event location, rounding, and one limitation: two sign changes of one
+velocity *within one step* (e.g. a touch of zero) are not seen; keep ``dt`` well below
+the shortest period that matters (the tests use 20 or more samples per period).
+
+**Smooth elements are second order in dt.** Their force is taken linear in time over each
+step (like the input) between ``f_j`` and ``f_{j+1} = f(d_{j+1}, v_{j+1})``, an implicit
+equation solved by Newton's method on the exact linear sensitivity of ``d_{j+1}``,
+``v_{j+1}`` to ``f_{j+1}`` (a few scalar operations per step). The linear part stays exact;
+the error of the force interpolation is ``O(dt^2)`` (measured in the tests). In a step
+with a friction event the smooth forces keep the ramp predicted for that step.
+
+Each step costs one modal recursion of the current regime plus the element rows, so a
+run with rare events costs about 1.5 times :func:`~truthbench.simulate.linear.simulate_lti`
+on the same model (``bench/bench_nonlinear.py``). The loop runs compiled by numba when it
+can be imported (``backend="auto"``), else interpreted: the same source, the same
+arithmetic, but slow (use the interpreted engine for small systems and checks only).
+
+This module belongs to ``truthbench.simulate``, which owns excitation, noise and time
+simulation.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import ClassVar, Literal, Protocol, runtime_checkable
+
+import numpy as np
+import scipy.linalg
+
+from truthbench.errors import ConvergenceError, ModelError
+
+from . import _nonlinear_kernel as _kern
+from .linear import (
+    _KAPPA_DEFECTIVE,
+    COND_MAX,
+    _block_split,
+    _check_dt,
+    _check_input,
+    _check_system,
+    _check_x0,
+    _defective_selection,
+    _discretize,
+    _eig,
+    _pairs,
+    _phi12,
+    _snap_zero_cluster,
+)
+
+__all__ = [
+    "LAWS",
+    "AmplitudeDependentDamping",
+    "CoulombFriction",
+    "CubicStiffness",
+    "DeadBand",
+    "NonlinearElement",
+    "NonlinearLaw",
+    "NonlinearResult",
+    "NonlinearSystem",
+    "prepare_nonlinear",
+    "simulate_nonlinear",
+]
+
+Backend = Literal["auto", "numba", "numpy"]
+
+#: Largest number of friction elements (every one of the 2**n stuck subsets is prepared).
+MAX_FRICTION_ELEMENTS = 6
+
+
+# ----------------------------------------------------------------------------------
+# element laws
+# ----------------------------------------------------------------------------------
+
+
+@runtime_checkable
+class NonlinearLaw(Protocol):
+    """What an element law provides: a registry name, a kernel code and parameters.
+
+    ``force(d, v)`` evaluates the law (vectorised; for friction the slipping force).
+    """
+
+    name: ClassVar[str]
+    kind: ClassVar[int]
+
+    def params(self) -> tuple[float, float]: ...
+
+    def force(self, d, v) -> np.ndarray: ...
+
+
+def _parameter(owner: str, name: str, value, *, minimum: float | None = 0.0) -> float:
+    try:
+        out = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{owner}.{name} must be a real number; got {value!r}") from exc
+    if not math.isfinite(out):
+        raise ValueError(f"{owner}.{name} must be finite; got {value!r}")
+    if minimum is not None and out < minimum:
+        raise ValueError(f"{owner}.{name} must be >= {minimum:g}; got {value!r}")
+    return out
+
+
+@dataclass(frozen=True)
+class CoulombFriction:
+    """Coulomb friction: ``f = -force_n sign(v)`` while slipping, stick within ``force_n``.
+
+    Attributes
+    ----------
+    force_n : float
+        Friction force ``F_c >= 0``, N (a moment in N m at a rotational DOF). Static and
+        kinetic friction are equal.
+    """
+
+    force_n: float
+    name: ClassVar[str] = "coulomb_friction"
+    kind: ClassVar[int] = _kern.KIND_COULOMB
+
+    def __post_init__(self):
+        object.__setattr__(self, "force_n", _parameter("CoulombFriction", "force_n",
+                                                       self.force_n))
+
+    def params(self) -> tuple[float, float]:
+        return (self.force_n, 0.0)
+
+    def force(self, d, v) -> np.ndarray:
+        """Slipping force ``-F_c sign(v)`` (0 at ``v = 0``; sticking is the simulator's)."""
+        return -self.force_n * np.sign(np.asarray(v, dtype=float)) + 0.0 * np.asarray(d)
+
+
+@dataclass(frozen=True)
+class CubicStiffness:
+    """Cubic spring: ``f = -k3_n_m3 d^3`` (``k3 > 0`` hardening, ``< 0`` softening).
+
+    Attributes
+    ----------
+    k3_n_m3 : float
+        Cubic stiffness, N/m^3 (N m/rad^3 at a rotational DOF).
+    """
+
+    k3_n_m3: float
+    name: ClassVar[str] = "cubic_stiffness"
+    kind: ClassVar[int] = _kern.KIND_CUBIC
+
+    def __post_init__(self):
+        object.__setattr__(self, "k3_n_m3", _parameter("CubicStiffness", "k3_n_m3",
+                                                       self.k3_n_m3, minimum=None))
+
+    def params(self) -> tuple[float, float]:
+        return (self.k3_n_m3, 0.0)
+
+    def force(self, d, v) -> np.ndarray:
+        d = np.asarray(d, dtype=float)
+        return -self.k3_n_m3 * d**3 + 0.0 * np.asarray(v)
+
+
+@dataclass(frozen=True)
+class DeadBand:
+    """Spring with free play: ``f = -k (d - sign(d) gap)`` for ``|d| > gap``, else 0.
+
+    Attributes
+    ----------
+    gap_m : float
+        Half-width of the free play, m (rad), ``>= 0``.
+    stiffness_n_m : float
+        Contact stiffness, N/m (N m/rad), ``>= 0``.
+    """
+
+    gap_m: float
+    stiffness_n_m: float
+    name: ClassVar[str] = "dead_band"
+    kind: ClassVar[int] = _kern.KIND_DEADBAND
+
+    def __post_init__(self):
+        object.__setattr__(self, "gap_m", _parameter("DeadBand", "gap_m", self.gap_m))
+        object.__setattr__(self, "stiffness_n_m",
+                           _parameter("DeadBand", "stiffness_n_m", self.stiffness_n_m))
+
+    def params(self) -> tuple[float, float]:
+        return (self.gap_m, self.stiffness_n_m)
+
+    def force(self, d, v) -> np.ndarray:
+        d = np.asarray(d, dtype=float)
+        excess = np.sign(d) * np.maximum(np.abs(d) - self.gap_m, 0.0)
+        return -self.stiffness_n_m * excess + 0.0 * np.asarray(v)
+
+
+@dataclass(frozen=True)
+class AmplitudeDependentDamping:
+    """Quadratic (velocity-squared) damping: ``f = -c2_n_s2_m2 |v| v``.
+
+    The equivalent viscous damping grows with the amplitude (``8 c2 omega X / (3 pi)``
+    for harmonic motion of amplitude ``X``): a weak nonlinearity of Table 10.1.
+
+    Attributes
+    ----------
+    c2_n_s2_m2 : float
+        Coefficient, N s^2/m^2 (N m s^2/rad^2), ``>= 0``.
+    """
+
+    c2_n_s2_m2: float
+    name: ClassVar[str] = "amplitude_dependent_damping"
+    kind: ClassVar[int] = _kern.KIND_QUADRATIC_DAMPING
+
+    def __post_init__(self):
+        object.__setattr__(self, "c2_n_s2_m2",
+                           _parameter("AmplitudeDependentDamping", "c2_n_s2_m2",
+                                      self.c2_n_s2_m2))
+
+    def params(self) -> tuple[float, float]:
+        return (self.c2_n_s2_m2, 0.0)
+
+    def force(self, d, v) -> np.ndarray:
+        v = np.asarray(v, dtype=float)
+        return -self.c2_n_s2_m2 * np.abs(v) * v + 0.0 * np.asarray(d)
+
+
+#: Element laws by registry name.
+LAWS: dict[str, type] = {
+    cls.name: cls
+    for cls in (CoulombFriction, CubicStiffness, DeadBand, AmplitudeDependentDamping)
+}
+
+
+# ----------------------------------------------------------------------------------
+# elements: a law placed in the state space
+# ----------------------------------------------------------------------------------
+
+
+def _vector(owner: str, name: str, value) -> np.ndarray:
+    arr = np.asarray(value)
+    if np.iscomplexobj(arr):
+        raise ModelError(f"{owner}.{name} must be real; got a complex array")
+    try:
+        arr = np.array(arr, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"{owner}.{name} must be a real vector; got {value!r}") from exc
+    if arr.ndim != 1:
+        raise ModelError(f"{owner}.{name} must be a 1-D vector; got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{owner}.{name} contains non-finite values (nan or inf)")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class NonlinearElement:
+    """A nonlinear law acting between the state and a force input of a linear system.
+
+    Attributes
+    ----------
+    law : NonlinearLaw
+        One of :data:`LAWS` (e.g. ``CoulombFriction(5.0)``).
+    displacement_row : ndarray, shape (n,)
+        ``c_d``: the element displacement ``d = c_d x``, m (rad).
+    velocity_row : ndarray, shape (n,)
+        ``c_v``: the element velocity ``v = c_v x``, m/s (rad/s); for a friction element
+        ``c_v @ force_column`` must be positive (the force acts on the velocity it
+        opposes; it is ``1 / m_eff``).
+    force_column : ndarray, shape (n,)
+        ``b``: the column of ``B_nl`` through which the element force enters ``x'``.
+    output_column : ndarray, shape (n_out,), optional
+        The column of ``D_nl`` (direct effect of the force on the outputs, e.g. on an
+        acceleration); zeros by default.
+
+    Notes
+    -----
+    For the modal form of :func:`truthbench.model.modal_system` (state
+    ``[eta; eta']``, mass-normalised shapes) use :meth:`modal`.
+    """
+
+    law: NonlinearLaw
+    displacement_row: np.ndarray
+    velocity_row: np.ndarray
+    force_column: np.ndarray
+    output_column: np.ndarray | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.law, tuple(LAWS.values())):
+            raise TypeError(
+                "NonlinearElement.law must be one of "
+                f"{', '.join(cls.__name__ for cls in LAWS.values())}; "
+                f"got {type(self.law).__name__}"
+            )
+        for name in ("displacement_row", "velocity_row", "force_column"):
+            object.__setattr__(self, name, _vector("NonlinearElement", name,
+                                                   getattr(self, name)))
+        if self.output_column is not None:
+            object.__setattr__(self, "output_column",
+                               _vector("NonlinearElement", "output_column",
+                                       self.output_column))
+
+    @classmethod
+    def modal(cls, law, shape_row, output_column=None) -> NonlinearElement:
+        """Element at a physical DOF of the modal form ``x = [eta; eta']``.
+
+        Parameters
+        ----------
+        law : NonlinearLaw
+        shape_row : array_like, shape (n_modes,)
+            Mass-normalised mode shapes at the DOF, ``Phi[dof, :]`` (for a joint between
+            two DOFs, ``Phi[a, :] - Phi[b, :]``: equal and opposite forces).
+        output_column : array_like, shape (n_out,), optional
+            Direct effect of the force on the outputs (acceleration outputs ``i``:
+            ``Phi_out[i, :] @ shape_row``).
+
+        Returns
+        -------
+        NonlinearElement
+            ``c_d = [phi, 0]``, ``c_v = [0, phi]``, ``b = [0; phi]``.
+        """
+        phi = _vector("NonlinearElement.modal", "shape_row", shape_row)
+        zero = np.zeros_like(phi)
+        return cls(
+            law,
+            np.concatenate([phi, zero]),
+            np.concatenate([zero, phi]),
+            np.concatenate([zero, phi]),
+            output_column,
+        )
+
+
+# ----------------------------------------------------------------------------------
+# regimes
+# ----------------------------------------------------------------------------------
+
+
+def _realize(a: np.ndarray, b: np.ndarray) -> dict:
+    """Modal (+ defective block) realisation of ``xi' = a xi + b w`` (as prepare_lti).
+
+    Returns the continuous modal data (eigenvalues ``s`` of one mode per conjugate pair,
+    modal input ``bm``), the maps between ``xi`` and the recursion coordinates
+    (``xi = Re(right z) + rb blk``, ``z = left xi``, ``blk = lb xi``), and the
+    continuous block ``T``, ``Bk``.
+    """
+    n, n_w = b.shape
+    empty = dict(
+        s=np.zeros(0, complex), bm=np.zeros((0, n_w), complex), right=np.zeros((n, 0), complex),
+        left=np.zeros((0, n), complex), T=np.zeros((0, 0)), Bk=np.zeros((0, n_w)),
+        rb=np.zeros((n, 0)), lb=np.zeros((0, n)), path="modal", cond=1.0,
+    )
+    if n == 0:
+        return empty
+    _, (scale, _) = scipy.linalg.matrix_balance(a, permute=False, separate=True)
+    ab = a * scale[None, :] / scale[:, None]
+    bb = b / scale[:, None]
+    s, v, vinv, cond_v = _eig(ab)
+    a_norm = float(np.linalg.norm(ab))
+    near_rigid = vinv is not None and bool(
+        np.any((np.linalg.norm(vinv, axis=1) > _KAPPA_DEFECTIVE) & (np.abs(s) <= 1e-6 * a_norm))
+    )
+    sel = _pairs(s)
+    if cond_v <= COND_MAX and not near_rigid and sel is not None:
+        keep, weight = sel
+        vinv_k = vinv[keep]
+        return {
+            **empty,
+            "s": s[keep],
+            "bm": vinv_k @ bb.astype(complex),
+            "right": scale[:, None] * v[:, keep] * weight,
+            "left": vinv_k / scale[None, :],
+            "cond": cond_v,
+        }
+    s_lr, bad = _defective_selection(ab)
+    split = _block_split(ab, s_lr, bad) if bad is not None else None
+    if split is not None:
+        p, pinv, t11, t22 = split
+        k = t11.shape[0]
+        t11 = _snap_zero_cluster(t11, a_norm)
+        cond_p = float(np.linalg.norm(p) * np.linalg.norm(pinv))
+        s2, v2, v2inv, cond_v2 = _eig(t22)
+        sel2 = _pairs(s2) if v2inv is not None else None
+        if cond_p <= COND_MAX and cond_v2 <= COND_MAX and sel2 is not None:
+            keep, weight = sel2
+            bw = pinv @ bb
+            v2inv_k = v2inv[keep]
+            return {
+                **empty,
+                "s": s2[keep],
+                "bm": v2inv_k @ bw[k:].astype(complex),
+                "right": scale[:, None] * (p[:, k:] @ v2[:, keep]) * weight,
+                "left": (v2inv_k @ pinv[k:]) / scale[None, :],
+                "T": t11,
+                "Bk": bw[:k],
+                "rb": scale[:, None] * p[:, :k],
+                "lb": pinv[:k] / scale[None, :],
+                "path": "block",
+                "cond": cond_p * cond_v2,
+            }
+    return {**empty, "T": ab, "Bk": bb, "rb": np.diag(scale), "lb": np.diag(1.0 / scale),
+            "path": "state"}
+
+
+def _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt):
+    """Everything the kernel needs for the regime whose stuck friction set is ``mask``.
+
+    ``c_rows``/``d_rows`` are the output rows ``[y; d; v; h; t]`` of the free system in
+    terms of ``x`` and ``w = [u; f_nl]`` (``h`` and ``t`` rows zero); the stuck
+    elements' holding forces and the slipping ones' trial holding forces are filled in
+    here.
+    """
+    n = a.shape[0]
+    n_w = bw.shape[1]
+    stuck = [fric[i] for i in range(len(fric)) if (mask >> i) & 1]
+    c_rows = c_rows.copy()
+    d_rows = d_rows.copy()
+    hx = np.zeros((n_nl, n))
+    hw = np.zeros((n_nl, n_w))
+    if stuck:
+        cvs = cv[stuck]
+        bs = bnl[:, stuck]
+        m_ss = cvs @ bs
+        if np.linalg.cond(m_ss) > 1e12:
+            raise ModelError(
+                f"friction elements {stuck} cannot all stick at once: their velocity rows "
+                "and force columns are (nearly) dependent (c_v B_nl restricted to them is "
+                f"singular, condition {np.linalg.cond(m_ss):.3g}); e.g. two friction "
+                "elements at the same DOF"
+            )
+        m_inv = np.linalg.inv(m_ss)
+        bw_eff = bw.copy()
+        bw_eff[:, [n_in + e for e in stuck]] = 0.0
+        hx_s = -m_inv @ cvs @ a
+        hw_s = -m_inv @ cvs @ bw_eff
+        proj = np.eye(n) - bs @ m_inv @ cvs
+        q = scipy.linalg.null_space(cvs)
+        a_r = q.T @ proj @ a @ q
+        b_r = q.T @ proj @ bw_eff
+        hx[stuck] = hx_s
+        hw[stuck] = hw_s
+        dnl_s = d_rows[:n_out, [n_in + e for e in stuck]]
+        d_rows[:, [n_in + e for e in stuck]] = 0.0
+        c_rows[:n_out] += dnl_s @ hx_s
+        d_rows[:n_out] += dnl_s @ hw_s
+        row_h = n_out + 2 * n_nl
+        c_rows[[row_h + e for e in stuck]] = hx_s
+        d_rows[[row_h + e for e in stuck]] = hw_s
+    else:
+        q = None
+        proj = np.eye(n)
+        bw_eff = bw
+        a_r = a
+        b_r = bw
+    # trial holding force of each slipping friction element: the force that would keep
+    # its velocity at zero with the stuck set as it is (zero rows for the others)
+    row_t = c_rows.shape[0] - n_nl
+    for i, e in enumerate(fric):
+        if (mask >> i) & 1:
+            continue
+        gain = float(cv[e] @ proj @ bnl[:, e])
+        if not gain > 0.0:
+            raise ModelError(
+                f"friction elements {sorted([*stuck, e])} cannot all stick at once: while "
+                f"{stuck} are stuck, element {e}'s velocity does not respond to its force "
+                f"(velocity_row @ force_column on the constrained system is {gain:.3g}); "
+                "e.g. two friction elements at the same DOF"
+            )
+        bw_t = bw_eff.copy()
+        bw_t[:, n_in + e] = 0.0
+        c_rows[row_t + e] = -(cv[e] @ proj @ a) / gain
+        d_rows[row_t + e] = -(cv[e] @ proj @ bw_t) / gain
+    real = _realize(a_r, b_r)
+    right, rb, left, lb = real["right"], real["rb"], real["left"], real["lb"]
+    if q is not None:
+        right = q @ right
+        rb = q @ rb
+        left = left @ q.T
+        lb = lb @ q.T
+    s = real["s"]
+    phi1, phi2 = _phi12(s * dt)
+    w0, w1 = dt * (phi1 - phi2), dt * phi2
+    bm = real["bm"]
+    g0 = (w0[:, None] * bm).T
+    g1 = (w1[:, None] * bm).T
+    cm = c_rows.astype(complex) @ right
+    ck = c_rows @ rb
+    ad, bd0, bd1 = _discretize(real["T"], real["Bk"], dt, "foh")
+    # sensitivity of the step-end rows to the element forces at the step end (Newton
+    # correction of the smooth forces)
+    cols = np.r_[n_in : n_in + n_nl]
+    n_hot = c_rows.shape[0] - n_nl
+    sens = ((cm[:n_hot] @ g1[cols].T).real + ck[:n_hot] @ bd1[:, cols]
+            + d_rows[:n_hot, cols])
+    smax = max(float(np.max(np.abs(s), initial=0.0)),
+               float(np.linalg.norm(real["T"], np.inf)) if real["T"].size else 0.0)
+    return dict(
+        nm=s.size, nk=real["T"].shape[0], s=s, bm=bm, lam=np.exp(s * dt), g0=g0, g1=g1,
+        cm=cm, rec=right, tom=left, T=real["T"], Bk=real["Bk"], ad=ad, bd0=bd0, bd1=bd1,
+        ck=ck, recb=rb, tob=lb, dr=d_rows, hx=hx, hw=hw, sens=sens, smax=smax,
+        path=real["path"],
+        cond=real["cond"],
+    )
+
+
+def _stack(parts: list[dict], key: str, shape_tail, dtype=float) -> np.ndarray:
+    out = np.zeros((len(parts), *shape_tail), dtype=dtype)
+    for r, part in enumerate(parts):
+        arr = part[key]
+        out[(r, *tuple(slice(0, k) for k in arr.shape))] = arr
+    return out
+
+
+def _readonly(x: np.ndarray) -> np.ndarray:
+    x = np.ascontiguousarray(x)
+    x.setflags(write=False)
+    return x
+
+
+# ----------------------------------------------------------------------------------
+# engines
+# ----------------------------------------------------------------------------------
+
+
+@functools.cache
+def _numba_run():
+    try:
+        from ._nonlinear_numba import run
+    except ImportError:
+        return None
+    return run
+
+
+def _engine(backend: str):
+    if backend not in ("auto", "numba", "numpy"):
+        raise ValueError(
+            f"backend must be one of 'auto', 'numba', 'numpy'; got {backend!r} instead"
+        )
+    if backend == "numpy":
+        return _kern.run
+    run = _numba_run()
+    if run is not None:
+        return run
+    if backend == "numba":
+        raise ImportError(
+            "backend='numba' was requested but numba cannot be imported; install the "
+            "'fast' extra (pip install truthbench[fast]) or use backend='numpy'"
+        )
+    return _kern.run
+
+
+# ----------------------------------------------------------------------------------
+# results and the prepared system
+# ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class NonlinearResult:
+    """Sampled response of a system with nonlinear elements.
+
+    Attributes
+    ----------
+    y : ndarray, shape (n_out, n_samples)
+        Outputs at ``t_j = j dt``.
+    f_nl : ndarray, shape (n_nl, n_samples)
+        Element forces at ``t_j``, N (N m): slipping friction ``-F_c sign(v)`` (the value
+        acting just after ``t_j``), stuck friction its holding force.
+    displacement, velocity : ndarray, shape (n_nl, n_samples)
+        Element displacement ``c_d x`` (m, rad) and velocity ``c_v x`` (m/s, rad/s).
+    stuck : ndarray of bool, shape (n_nl, n_samples)
+        Whether each friction element is stuck at ``t_j`` (False for other elements).
+    n_stick_events : ndarray of int, shape (n_nl,)
+        Transitions from slip to stick, per element.
+    n_reversals : ndarray of int, shape (n_nl,)
+        Changes of the slip direction (through a stick phase or not), per element.
+    dt : float
+        Sampling interval, s.
+    """
+
+    y: np.ndarray
+    f_nl: np.ndarray
+    displacement: np.ndarray
+    velocity: np.ndarray
+    stuck: np.ndarray
+    n_stick_events: np.ndarray
+    n_reversals: np.ndarray
+    dt: float
+
+    @property
+    def t_s(self) -> np.ndarray:
+        """Sample times ``j dt``, s."""
+        return self.dt * np.arange(self.y.shape[1])
+
+
+@dataclass(frozen=True, eq=False)
+class NonlinearSystem:
+    """A linear system with nonlinear elements, prepared for simulation at ``dt``.
+
+    Made by :func:`prepare_nonlinear`; reuse it for many inputs (the regimes are
+    decomposed once). Attributes ``paths`` and ``conds`` describe each regime's
+    realisation (``"modal"``, ``"block"`` or ``"state"``, and the condition number of its
+    coordinate change), indexed by the bit mask of stuck friction elements.
+    """
+
+    dt: float
+    n_states: int
+    n_inputs: int
+    n_outputs: int
+    elements: tuple
+    paths: tuple
+    conds: tuple
+    _arrays: dict
+
+    @property
+    def n_elements(self) -> int:
+        return len(self.elements)
+
+    @property
+    def n_regimes(self) -> int:
+        return len(self.paths)
+
+    def simulate(self, u, x0=None, *, backend: Backend = "auto",
+                 max_events_per_step: int = 1000) -> NonlinearResult:
+        """Response to the input ``u`` from the initial state ``x0``.
+
+        Parameters
+        ----------
+        u : array_like, shape (n_inputs, n_samples)
+            Input at ``t_j = j dt`` (1-D accepted for one input), linear between samples.
+        x0 : array_like, shape (n_states,), optional
+            Initial state (zeros by default). A friction element with ``v = 0`` at
+            ``t = 0`` starts stuck if its holding force is within ``F_c``.
+        backend : {"auto", "numba", "numpy"}
+            Engine; ``"auto"`` uses numba when it imports.
+        max_events_per_step : int
+            Limit on friction events within one step (guards against chattering).
+
+        Returns
+        -------
+        NonlinearResult
+
+        Raises
+        ------
+        ValueError
+            Bad ``u``, ``x0`` or ``backend``.
+        ConvergenceError
+            More than ``max_events_per_step`` events in one step.
+        """
+        run = _engine(backend)
+        uu = _check_input(u, self.n_inputs)
+        x = _check_x0(x0, self.n_states)
+        if isinstance(max_events_per_step, bool) or not isinstance(max_events_per_step, int) \
+                or max_events_per_step < 1:
+            raise ValueError("max_events_per_step must be a positive integer; got "
+                             f"{max_events_per_step!r}")
+        arr = self._arrays
+        if uu.shape[0] == 0:
+            uu = np.zeros((0, uu.shape[1]))
+        out = run(
+            uu, self.dt, x, self.n_outputs, arr["nm"], arr["nk"], arr["smax"], arr["s"],
+            arr["bm"], arr["lamr"], arr["lami"], arr["g0r"], arr["g0i"], arr["g1r"],
+            arr["g1i"], arr["cm"], arr["cmr"], arr["cmi"], arr["recr"], arr["reci"],
+            arr["tomr"], arr["tomi"], arr["T"], arr["Bk"], arr["ad"], arr["bd0"], arr["bd1"],
+            arr["ck"], arr["recb"], arr["tob"], arr["dr"], arr["hx"], arr["hw"], arr["sens"],
+            arr["kind"], arr["par"], arr["fbit"], arr["cd"], arr["cv"], 50,
+            int(max_events_per_step),
+        )
+        y, f, disp, vel, stuck, n_stick, n_rev, fail = out
+        if fail >= 0:
+            raise ConvergenceError(
+                f"more than max_events_per_step={max_events_per_step} friction events in "
+                f"the step from sample {fail} to {fail + 1} (t = {fail * self.dt:.6g} s): "
+                "chattering between stick and slip; check the friction elements or use a "
+                "smaller dt"
+            )
+        return NonlinearResult(
+            y=_readonly(y), f_nl=_readonly(f), displacement=_readonly(disp),
+            velocity=_readonly(vel), stuck=_readonly(stuck),
+            n_stick_events=_readonly(n_stick), n_reversals=_readonly(n_rev), dt=self.dt,
+        )
+
+
+def _check_elements(elements, n: int, n_out: int) -> tuple:
+    if isinstance(elements, NonlinearElement):
+        elements = (elements,)
+    try:
+        elements = tuple(elements)
+    except TypeError as exc:
+        raise TypeError(
+            f"elements must be a sequence of NonlinearElement; got {type(elements).__name__}"
+        ) from exc
+    for i, el in enumerate(elements):
+        if not isinstance(el, NonlinearElement):
+            raise TypeError(
+                f"elements[{i}] must be a NonlinearElement; got {type(el).__name__}"
+            )
+        for name in ("displacement_row", "velocity_row", "force_column"):
+            got = getattr(el, name).shape
+            if got != (n,):
+                raise ModelError(
+                    f"elements[{i}].{name} has the wrong shape; expected ({n},) (one entry "
+                    f"per state) instead of {got}"
+                )
+        if el.output_column is not None and el.output_column.shape != (n_out,):
+            raise ModelError(
+                f"elements[{i}].output_column has the wrong shape; expected ({n_out},) "
+                f"(one entry per output) instead of {el.output_column.shape}"
+            )
+        if isinstance(el.law, CoulombFriction):
+            gain = float(el.velocity_row @ el.force_column)
+            scale = float(np.linalg.norm(el.velocity_row) * np.linalg.norm(el.force_column))
+            if not gain > 1e-12 * scale or scale == 0.0:
+                raise ModelError(
+                    f"elements[{i}] (CoulombFriction) needs velocity_row @ force_column > 0 "
+                    "(the friction force must act directly on the velocity it opposes; "
+                    f"the product is 1/m_eff); got {gain:.6g}"
+                )
+    n_fric = sum(isinstance(el.law, CoulombFriction) for el in elements)
+    if n_fric > MAX_FRICTION_ELEMENTS:
+        raise ModelError(
+            f"at most {MAX_FRICTION_ELEMENTS} CoulombFriction elements are supported "
+            f"(2**n stick regimes are prepared); got {n_fric}"
+        )
+    return elements
+
+
+def prepare_nonlinear(A, B, C, D, dt: float, elements) -> NonlinearSystem:
+    """Prepare ``x' = A x + B u + B_nl f_nl``, ``y = C x + D u + D_nl f_nl`` for simulation.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        State matrix, 1/s.
+    B : array_like, shape (n, n_in)
+        Input matrix.
+    C : array_like, shape (n_out, n)
+        Output matrix.
+    D : array_like, shape (n_out, n_in), or None
+        Feedthrough of ``u`` (None: zeros).
+    dt : float
+        Sampling interval, s.
+    elements : sequence of NonlinearElement
+        The nonlinear elements; their force columns form ``B_nl`` and their output
+        columns ``D_nl``. At most :data:`MAX_FRICTION_ELEMENTS` friction elements.
+
+    Returns
+    -------
+    NonlinearSystem
+
+    Raises
+    ------
+    ModelError
+        Malformed matrices, element rows of the wrong shape, a friction element whose
+        force does not act on its velocity, friction elements that cannot stick together.
+    ValueError
+        Bad ``dt``.
+    TypeError
+        ``elements`` not a sequence of :class:`NonlinearElement`.
+    """
+    a, b, c, d = _check_system(A, B, C, D)
+    dt = _check_dt(dt)
+    n, n_in = b.shape
+    n_out = c.shape[0]
+    els = _check_elements(elements, n, n_out)
+    n_nl = len(els)
+    bnl = np.zeros((n, n_nl))
+    dnl = np.zeros((n_out, n_nl))
+    cd = np.zeros((n_nl, n))
+    cv = np.zeros((n_nl, n))
+    kind = np.zeros(n_nl, dtype=np.int64)
+    par = np.zeros((n_nl, 2))
+    fbit = np.full(n_nl, -1, dtype=np.int64)
+    fric: list[int] = []
+    for e, el in enumerate(els):
+        bnl[:, e] = el.force_column
+        if el.output_column is not None:
+            dnl[:, e] = el.output_column
+        cd[e] = el.displacement_row
+        cv[e] = el.velocity_row
+        kind[e] = el.law.kind
+        par[e] = el.law.params()
+        if el.law.kind == _kern.KIND_COULOMB:
+            fbit[e] = len(fric)
+            fric.append(e)
+    bw = np.hstack([b, bnl])
+    # rows of every regime: [y; d; v; h; zero padding to a multiple of 4 (at least 4); t]
+    n_hot = max(4, -(-(n_out + 3 * n_nl) // 4) * 4)
+    n_rows = n_hot + n_nl
+    c_rows = np.zeros((n_rows, n))
+    c_rows[: n_out + 2 * n_nl] = np.vstack([c, cd, cv])
+    d_rows = np.zeros((n_rows, n_in + n_nl))
+    d_rows[:n_out, :n_in] = d
+    d_rows[:n_out, n_in:] = dnl
+    parts = [
+        _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt)
+        for mask in range(2 ** len(fric))
+    ]
+    m_max = max(p["nm"] for p in parts)
+    k_max = max(p["nk"] for p in parts)
+    n_w = n_in + n_nl
+    st = functools.partial(_stack, parts)
+    cm = st("cm", (n_rows, m_max), complex)
+    rec = st("rec", (n, m_max), complex)
+    tom = st("tom", (m_max, n), complex)
+    g0 = st("g0", (n_w, m_max), complex)
+    g1 = st("g1", (n_w, m_max), complex)
+    lam = st("lam", (m_max,), complex)
+    arrays = dict(
+        nm=np.array([p["nm"] for p in parts], dtype=np.int64),
+        nk=np.array([p["nk"] for p in parts], dtype=np.int64),
+        s=st("s", (m_max,), complex), bm=st("bm", (m_max, n_w), complex),
+        lamr=lam.real, lami=lam.imag, g0r=g0.real, g0i=g0.imag, g1r=g1.real, g1i=g1.imag,
+        cm=cm, cmr=cm.real, cmi=cm.imag, recr=rec.real, reci=rec.imag, tomr=tom.real,
+        tomi=tom.imag, T=st("T", (k_max, k_max)), Bk=st("Bk", (k_max, n_w)),
+        ad=st("ad", (k_max, k_max)), bd0=st("bd0", (k_max, n_w)),
+        bd1=st("bd1", (k_max, n_w)), ck=st("ck", (n_rows, k_max)),
+        recb=st("recb", (n, k_max)), tob=st("tob", (k_max, n)),
+        dr=st("dr", (n_rows, n_w)), hx=st("hx", (n_nl, n)), hw=st("hw", (n_nl, n_w)),
+        sens=st("sens", (n_hot, n_nl)), smax=np.array([p["smax"] for p in parts]),
+        kind=kind, par=par, fbit=fbit, cd=cd, cv=cv,
+    )
+    # one compiled signature: C-contiguous writeable float64/complex128/int64 arrays
+    arrays = {k: np.require(v, requirements=["C", "W"]) for k, v in arrays.items()}
+    return NonlinearSystem(
+        dt=dt, n_states=n, n_inputs=n_in, n_outputs=n_out, elements=els,
+        paths=tuple(p["path"] for p in parts), conds=tuple(float(p["cond"]) for p in parts),
+        _arrays=arrays,
+    )
+
+
+def simulate_nonlinear(A, B, C, D, u, dt: float, elements, *, x0=None,
+                       backend: Backend = "auto") -> NonlinearResult:
+    """Sampled response of a linear system with nonlinear elements (see the module doc).
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        State matrix, 1/s.
+    B : array_like, shape (n, n_in)
+        Input matrix.
+    C : array_like, shape (n_out, n)
+        Output matrix.
+    D : array_like, shape (n_out, n_in), or None
+        Feedthrough of ``u``.
+    u : array_like, shape (n_in, n_samples)
+        Input at ``t_j = j dt``, linear between samples (1-D accepted for one input).
+    dt : float
+        Sampling interval, s.
+    elements : sequence of NonlinearElement
+        Nonlinear elements (friction, cubic stiffness, dead band, quadratic damping).
+    x0 : array_like, shape (n,), optional
+        Initial state; zeros by default.
+    backend : {"auto", "numba", "numpy"}
+        Engine for the per-sample loop.
+
+    Returns
+    -------
+    NonlinearResult
+
+    Raises
+    ------
+    ModelError, ValueError, TypeError, ConvergenceError
+        See :func:`prepare_nonlinear` and :meth:`NonlinearSystem.simulate`.
+
+    Notes
+    -----
+    With no elements, or with zero friction force and zero nonlinear stiffness, the
+    result equals :func:`~truthbench.simulate.linear.simulate_lti` to rounding.
+    """
+    _engine(backend)
+    a, b, _, _ = _check_system(A, B, C, D)
+    _check_input(u, b.shape[1])
+    _check_x0(x0, a.shape[0])
+    system = prepare_nonlinear(A, B, C, D, dt, elements)
+    return system.simulate(u, x0=x0, backend=backend)
