@@ -1,9 +1,7 @@
 """Coulomb friction against the exact single-DOF free decay (METHOD section 1)."""
 
 import numpy as np
-import pytest
 
-from truthbench.errors import ConvergenceError
 from truthbench.simulate import (
     CoulombFriction,
     NonlinearElement,
@@ -27,7 +25,7 @@ def test_sdof_free_decay_loses_4fc_over_k_per_cycle_and_sticks():
     """m x'' + k x = -F_c sign(x'): every half cycle the amplitude drops by exactly
     2 F_c / k (4 F_c / k per cycle) and the mass stops at the first turning point inside
     |x| <= F_c / k; 2 % tolerance (the issue's). dt = 1/2001 s keeps the turning points
-    (every 0.5 s) off the sample instants; see the xfail below for the aligned case."""
+    (every 0.5 s) off the sample instants; the next test puts them on them."""
     dt = 1.0 / 2001
     res = _free_decay(dt)
     x = res.y[0]
@@ -42,12 +40,16 @@ def test_sdof_free_decay_loses_4fc_over_k_per_cycle_and_sticks():
     assert abs(len(peaks) - expected) <= 1
 
 
-@pytest.mark.xfail(raises=ConvergenceError, strict=True,
-                   reason="known bug: a velocity reversal exactly at a sample instant is "
-                          "reported as stick-slip chattering")
 def test_turning_point_on_a_sample_instant():
+    """Reversals exactly at sample instants (every 0.5 s with dt = 1/2000 s) once raised
+    a chattering error; the decay must match the same oracle."""
     res = _free_decay(1.0 / 2000)
-    assert abs(res.y[0, -1]) <= FC / K * 1.02
+    x = res.y[0]
+    ext = np.flatnonzero(np.diff(np.sign(np.diff(x))) != 0) + 1
+    peaks = np.abs(x[ext])
+    peaks = peaks[peaks > FC / K]
+    np.testing.assert_allclose(-np.diff(peaks), 2 * FC / K, rtol=0.02)
+    assert abs(x[-1]) <= FC / K * 1.02
 
 
 def test_zero_friction_equals_linear():

@@ -539,10 +539,16 @@ def test_bad_elements_name_the_parameter():
 
 
 def test_event_limit_raises_convergence_error():
-    """A step in which the mass reverses and sticks needs two events; a limit of one
-    per step is reported with the sample."""
-    a, b, c, _ = sdof(zeta=0.0)
-    el = NonlinearElement(CoulombFriction(2.0), [1.0, 0.0], [0.0, 1.0], [0.0, 1.0])
-    system = prepare_nonlinear(a, b, c, None, 0.03, [el])
+    """Two identical friction oscillators released together reverse in the same step:
+    two events in one step; a limit of one per step is reported with the sample."""
+    a1, b1, _, _ = sdof(zeta=0.0)
+    a = np.kron(np.eye(2), a1)
+    b = np.vstack([b1, b1])
+    e = np.eye(4)
+    els = [NonlinearElement(CoulombFriction(2.0), e[2 * i], e[2 * i + 1], e[2 * i + 1])
+           for i in range(2)]
+    system = prepare_nonlinear(a, b, e[[0, 2]], None, 1.3e-3, els)
+    res = system.simulate(np.zeros(400), x0=[0.1, 0.0, 0.1, 0.0])
+    assert np.allclose(res.y[0], res.y[1], rtol=0, atol=1e-12) and res.n_reversals[0] > 0
     with pytest.raises(ConvergenceError, match=r"max_events_per_step=1 .* sample \d+"):
-        system.simulate(np.zeros(400), x0=[0.1, 0.0], max_events_per_step=1)
+        system.simulate(np.zeros(400), x0=[0.1, 0.0, 0.1, 0.0], max_events_per_step=1)

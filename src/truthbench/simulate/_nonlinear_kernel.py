@@ -99,6 +99,16 @@ def phi12(a):
     return p1, (p1 - 1.0) / a
 
 
+def phi1(a):
+    """``phi1(a) = (e^a - 1)/a`` for complex ``a``."""
+    if abs(a) < _TAYLOR_RADIUS:
+        p1 = _INV_FACT[_N_TAYLOR + 1] + 0j
+        for k in range(_N_TAYLOR - 1, -1, -1):
+            p1 = p1 * a + _INV_FACT[k + 1]
+        return p1
+    return (np.exp(a) - 1.0) / a
+
+
 def matmul(a, b, out):
     """``out = a @ b`` for small square matrices (plain loops: no BLAS binding)."""
     n = a.shape[0]
@@ -188,9 +198,9 @@ def hermite_first_root(g0, d0, c0, g1, d1, c1):
             hi = th
             break
         lo = th
-    for _ in range(60):
+    for _ in range(60):  # to 1e-10: Newton on the exact solution follows
         th = 0.5 * (lo + hi)
-        if hi - lo <= 1e-15:
+        if hi - lo <= 1e-10:
             break
         val = g0 + th * (d0 + th * (a2 + th * (a3 + th * (a4 + th * a5))))
         if val > 0.0:
@@ -408,31 +418,32 @@ def shift(nm, nk, s, tblk, z, xi, q, qd, g, gd, d, oz, ox):
             ox[k] = xi[k] + d * x1[k] + d2 * x2[k] + d3 * acc
 
 
-def hot_rows(nm, nk, cmr, cmi, ck, dr, n_hot, zr, zi, xi, w, out):
-    """The first ``n_hot`` rows (a multiple of 4) at a state, four at a time."""
-    for o in range(0, n_hot, 4):
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        s3 = 0.0
+def hot_rows(nm, nk, cmr, cmi, ck, dr, zr, zi, xi, w, out):
+    """Every row at a state (after an event; the fast path computes only active rows)."""
+    for o in range(out.shape[0]):
+        acc = 0.0
         for i in range(nm):
-            a = zr[i]
-            b = zi[i]
-            s0 += cmr[o, i] * a - cmi[o, i] * b
-            s1 += cmr[o + 1, i] * a - cmi[o + 1, i] * b
-            s2 += cmr[o + 2, i] * a - cmi[o + 2, i] * b
-            s3 += cmr[o + 3, i] * a - cmi[o + 3, i] * b
-        out[o] = s0
-        out[o + 1] = s1
-        out[o + 2] = s2
-        out[o + 3] = s3
-    for o in range(n_hot):
-        acc = out[o]
+            acc += cmr[o, i] * zr[i] - cmi[o, i] * zi[i]
         for q in range(nk):
             acc += ck[o, q] * xi[q]
         for p in range(w.shape[0]):
             acc += dr[o, p] * w[p]
         out[o] = acc
+
+
+def fric_forcing(nm, n_in, kind, par, fbit, mask, dirs, g0r, g0i, g1r, g1i, cfr, cfi):
+    """Modal forcing of one full step by the slipping friction forces (constant)."""
+    for i in range(nm):
+        cfr[i] = 0.0
+        cfi[i] = 0.0
+    for e in range(kind.shape[0]):
+        if kind[e] != KIND_COULOMB or (mask >> fbit[e]) & 1:
+            continue
+        f = -par[e, 0] * dirs[e]
+        p = n_in + e
+        for i in range(nm):
+            cfr[i] += (g0r[p, i] + g1r[p, i]) * f
+            cfi[i] += (g0i[p, i] + g1i[p, i]) * f
 
 
 def record(jr, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs, is_smooth,
@@ -441,20 +452,24 @@ def record(jr, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs, is_
     for o in range(n_out):
         y[o, jr] = hot[o]
     for e in range(fsm.shape[0]):
-        disp[e, jr] = hot[row_d + e]
-        vel[e, jr] = hot[row_v + e]
         if is_smooth[e]:
+            disp[e, jr] = hot[row_d + e]
+            vel[e, jr] = hot[row_v + e]
             fsm[e] = wb_s[n_in + e]
             fo[e, jr] = fsm[e]
         elif (mask >> fbit[e]) & 1:
+            disp[e, jr] = np.nan  # not tracked for friction elements
+            vel[e, jr] = 0.0
             fo[e, jr] = hot[row_h + e]
             stuck[e, jr] = True
         else:
+            disp[e, jr] = np.nan
+            vel[e, jr] = hot[row_v + e]
             fo[e, jr] = -par[e, 0] * dirs[e]
 
 
 def event_step(
-    j, dt, mask, n_in, n_hot, row_v, row_h, row_t, max_events, nm_a, nk_a, smax_a, s_a,
+    j, dt, mask, n_in, row_v, row_h, row_t, max_events, nm_a, nk_a, smax_a, s_a,
     bm_a, cm_a, cmr_a, cmi_a, recr_a, reci_a, tomr_a, tomi_a, tblk_a, bblk_a, ck_a, recb_a,
     tob_a, dr_a, hx, hw, kind, par, fbit, dirs, last_dir, fresh, n_rev, n_stick, wa_s, wb_s,
     zr0, zi0, xi0, zr, zi, xi, hot, cz, rz, wz, x,
@@ -663,16 +678,16 @@ def event_step(
                 fresh[e] = 1
                 p = n_in + e
                 if jump != 0.0 and span > 0.0:
+                    # response at the step end to a force step at ta: span phi1(s span) b
                     for i in range(nm):
-                        qt[i] = bm[i, p] * jump
-                    for q in range(nk):
-                        gt[q] = bblk[q, p] * jump
-                    advance(nm, nk, s, tblk, zero_m, zero_k, qt, zero_m, gt, zero_k,
-                            span, zt, xt)
-                    for i in range(nm):
-                        ze[i] += zt[i]
-                    for q in range(nk):
-                        xe[q] += xt[q]
+                        ze[i] += (span * jump) * (phi1(s[i] * span) * bm[i, p])
+                    if nk > 0:
+                        for q in range(nk):
+                            gt[q] = bblk[q, p] * jump
+                        advance(0, nk, s, tblk, zero_m, zero_k, qt, zero_m, gt, zero_k,
+                                span, zt, xt)
+                        for q in range(nk):
+                            xe[q] += xt[q]
                 continue
             trial_mask = mask | (1 << fbit[e])
             forced = -1
@@ -735,7 +750,7 @@ def event_step(
     for q in range(nk):
         xi[q] = xe[q]
     fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
-    hot_rows(nm, nk, cmr_a[r], cmi_a[r], ck_a[r], dr_a[r], n_hot, zr, zi, xi, w2, hot)
+    hot_rows(nm, nk, cmr_a[r], cmi_a[r], ck_a[r], dr_a[r], zr, zi, xi, w2, hot)
     return mask, fail
 
 
@@ -747,12 +762,14 @@ def event_step(
 def run(
     u, dt, x0, n_out, nm_a, nk_a, smax_a, s_a, bm_a, lamr_a, lami_a, g0r_a, g0i_a, g1r_a,
     g1i_a, cm_a, cmr_a, cmi_a, recr_a, reci_a, tomr_a, tomi_a, tblk_a, bblk_a, ad_a,
-    bd0_a, bd1_a, ck_a, recb_a, tob_a, dr_a, hx, hw, sens_a, kind, par, fbit, cd, cv,
-    max_newton, max_events,
+    bd0_a, bd1_a, ck_a, recb_a, tob_a, dr_a, hx, hw, sens_a, act_a, nact_a, kind, par, fbit,
+    cd, cv, max_newton, max_events,
 ):
     """Simulate; see :meth:`truthbench.simulate.nonlinear.NonlinearSystem.simulate`.
 
-    Rows of every regime: ``[y; d; v; h; zero padding to a multiple of 4; t]``.
+    Rows of every regime: ``[y; d; v; h; t; a zero row]``; per step only the regime's
+    active rows ``act_a[r, :nact_a[r]]`` are computed (at least four: the first four are
+    fused with the modal update).
     Returns ``(y, f, disp, vel, stuck, n_stick, n_rev, fail)`` where ``fail`` is -1 or
     the sample index at which the event limit per step was exceeded.
     """
@@ -760,11 +777,10 @@ def run(
     n_nl = kind.shape[0]
     n_w = n_in + n_nl
     n_rows = cmr_a.shape[1]
-    n_hot = n_rows - n_nl
     row_d = n_out
     row_v = n_out + n_nl
     row_h = n_out + 2 * n_nl
-    row_t = n_hot
+    row_t = n_out + 3 * n_nl
     n = x0.shape[0]
     m_max = lamr_a.shape[1]
     k_max = ad_a.shape[1]
@@ -797,7 +813,7 @@ def run(
     wz = np.zeros((3, n_w))
     w = wz[0]
     w2 = wz[1]
-    hot = np.zeros(n_hot)
+    hot = np.zeros(n_rows)
     x = np.zeros(n)
     zr = np.zeros(m_max)
     zi = np.zeros(m_max)
@@ -808,6 +824,14 @@ def run(
     nxi = np.zeros(k_max)
     fr = np.zeros(m_max)
     fi = np.zeros(m_max)
+    cfr = np.zeros(m_max)
+    cfi = np.zeros(m_max)
+    dyn = np.zeros(n_w, dtype=np.int64)  # inputs that vary within a step: u, smooth forces
+    n_dyn = 0
+    for p in range(n_w):
+        if p < n_in or kind[p - n_in] != KIND_COULOMB:
+            dyn[n_dyn] = p
+            n_dyn += 1
     cz = np.zeros((10, m_max), dtype=np.complex128)  # event-path scratch
     rz = np.zeros((10, k_max))
     delta = np.zeros(n_nl)
@@ -843,8 +867,7 @@ def run(
     for p in range(n_w):
         wb_s[p] = wa_s[p]
     fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
-    hot_rows(nm_a[r], nk_a[r], cmr_a[r], cmi_a[r], ck_a[r], dr_a[r], n_hot, zr, zi, xi, w2,
-             hot)
+    hot_rows(nm_a[r], nk_a[r], cmr_a[r], cmi_a[r], ck_a[r], dr_a[r], zr, zi, xi, w2, hot)
 
     record(0, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs, is_smooth, wb_s,
            fsm, y, fo, disp, vel, stuck)
@@ -868,6 +891,13 @@ def run(
         bd0 = bd0_a[r]
         bd1 = bd1_a[r]
         sens = sens_a[r]
+        act = act_a[r]
+        nact = nact_a[r]
+        o0 = act[0]
+        o1 = act[1]
+        o2 = act[2]
+        o3 = act[3]
+        fric_forcing(nm, n_in, kind, par, fbit, mask, dirs, g0r, g0i, g1r, g1i, cfr, cfi)
         while j < n_samples - 1:
             for p in range(n_in):
                 wa_s[p] = u[p, j]
@@ -877,10 +907,12 @@ def run(
                 wb_s[n_in + e] = fsm[e]  # predictor for the smooth forces
             fill_input(0.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w)
             fill_input(1.0, wa_s, wb_s, n_in, kind, par, dirs, mask, fbit, w2)
+            # forcing: the friction forces are constant between events (cfr, cfi)
             for i in range(nm):
-                fr[i] = 0.0
-                fi[i] = 0.0
-            for p in range(n_w):
+                fr[i] = cfr[i]
+                fi[i] = cfi[i]
+            for q2 in range(n_dyn):
+                p = dyn[q2]
                 a0 = w[p]
                 a1 = w2[p]
                 if a0 == 0.0 and a1 == 0.0:
@@ -907,30 +939,20 @@ def run(
                 nb = lamr[i] * b + lami[i] * a + fi[i]
                 zr[i] = na
                 zi[i] = nb
-                s0 += cmr[0, i] * na - cmi[0, i] * nb
-                s1 += cmr[1, i] * na - cmi[1, i] * nb
-                s2 += cmr[2, i] * na - cmi[2, i] * nb
-                s3 += cmr[3, i] * na - cmi[3, i] * nb
-            hot[0] = s0
-            hot[1] = s1
-            hot[2] = s2
-            hot[3] = s3
-            for o in range(4, n_hot, 4):
+                s0 += cmr[o0, i] * na - cmi[o0, i] * nb
+                s1 += cmr[o1, i] * na - cmi[o1, i] * nb
+                s2 += cmr[o2, i] * na - cmi[o2, i] * nb
+                s3 += cmr[o3, i] * na - cmi[o3, i] * nb
+            hot[o0] = s0
+            hot[o1] = s1
+            hot[o2] = s2
+            hot[o3] = s3
+            for q in range(4, nact):
+                o = act[q]
                 s0 = 0.0
-                s1 = 0.0
-                s2 = 0.0
-                s3 = 0.0
                 for i in range(nm):
-                    a = zr[i]
-                    b = zi[i]
-                    s0 += cmr[o, i] * a - cmi[o, i] * b
-                    s1 += cmr[o + 1, i] * a - cmi[o + 1, i] * b
-                    s2 += cmr[o + 2, i] * a - cmi[o + 2, i] * b
-                    s3 += cmr[o + 3, i] * a - cmi[o + 3, i] * b
+                    s0 += cmr[o, i] * zr[i] - cmi[o, i] * zi[i]
                 hot[o] = s0
-                hot[o + 1] = s1
-                hot[o + 2] = s2
-                hot[o + 3] = s3
             for q in range(nk):
                 acc = 0.0
                 for c in range(nk):
@@ -940,7 +962,8 @@ def run(
                 nxi[q] = acc
             for q in range(nk):
                 xi[q] = nxi[q]
-            for o in range(n_hot):
+            for q2 in range(nact):
+                o = act[q2]
                 acc = hot[o]
                 for q in range(nk):
                     acc += ck[o, q] * xi[q]
@@ -996,7 +1019,8 @@ def run(
                         zi[i] += g1i[p, i] * de
                     for q in range(nk):
                         xi[q] += bd1[q, p] * de
-                    for o in range(n_hot):
+                    for q2 in range(nact):
+                        o = act[q2]
                         hot[o] += sens[o, e] * de
 
             # -- friction gates at the step end
@@ -1013,7 +1037,7 @@ def run(
             if event:
                 # -- event path: the step piece by piece from its start
                 mask, fail = event_step(
-                    j, dt, mask, n_in, n_hot, row_v, row_h, row_t, max_events, nm_a, nk_a,
+                    j, dt, mask, n_in, row_v, row_h, row_t, max_events, nm_a, nk_a,
                     smax_a, s_a, bm_a, cm_a, cmr_a, cmi_a, recr_a, reci_a, tomr_a, tomi_a,
                     tblk_a, bblk_a, ck_a, recb_a, tob_a, dr_a, hx, hw, kind, par, fbit, dirs,
                     last_dir, fresh, n_rev, n_stick, wa_s, wb_s, zr0, zi0, xi0, zr, zi, xi,
@@ -1021,6 +1045,8 @@ def run(
                 )
                 if fail >= 0:
                     break
+                fric_forcing(nm, n_in, kind, par, fbit, mask, dirs, g0r, g0i, g1r, g1i, cfr,
+                             cfi)
             j += 1
             record(j, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs,
                    is_smooth, wb_s, fsm, y, fo, disp, vel, stuck)

@@ -483,7 +483,7 @@ def _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt):
         b_r = bw
     # trial holding force of each slipping friction element: the force that would keep
     # its velocity at zero with the stuck set as it is (zero rows for the others)
-    row_t = c_rows.shape[0] - n_nl
+    row_t = n_out + 3 * n_nl
     for i, e in enumerate(fric):
         if (mask >> i) & 1:
             continue
@@ -518,15 +518,23 @@ def _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt):
     # sensitivity of the step-end rows to the element forces at the step end (Newton
     # correction of the smooth forces)
     cols = np.r_[n_in : n_in + n_nl]
-    n_hot = c_rows.shape[0] - n_nl
-    sens = ((cm[:n_hot] @ g1[cols].T).real + ck[:n_hot] @ bd1[:, cols]
-            + d_rows[:n_hot, cols])
+    sens = (cm @ g1[cols].T).real + ck @ bd1[:, cols] + d_rows[:, cols]
+    # rows computed at every step: outputs, displacements of the smooth elements,
+    # velocities of the elements not stuck, holding forces of the stuck ones; at least
+    # four (the zero row pads). A friction element's displacement is not needed: leaving
+    # it out saves a sixth of the per-step work of a 4-output model.
+    stuck_set = set(stuck)
+    act = list(range(n_out)) + [n_out + e for e in range(n_nl) if e not in fric]
+    act += [n_out + n_nl + e for e in range(n_nl) if e not in stuck_set]
+    act += [n_out + 2 * n_nl + e for e in stuck]
+    act += [c_rows.shape[0] - 1] * max(0, 4 - len(act))
     smax = max(float(np.max(np.abs(s), initial=0.0)),
                float(np.linalg.norm(real["T"], np.inf)) if real["T"].size else 0.0)
     return dict(
         nm=s.size, nk=real["T"].shape[0], s=s, bm=bm, lam=np.exp(s * dt), g0=g0, g1=g1,
         cm=cm, rec=right, tom=left, T=real["T"], Bk=real["Bk"], ad=ad, bd0=bd0, bd1=bd1,
         ck=ck, recb=rb, tob=lb, dr=d_rows, hx=hx, hw=hw, sens=sens, smax=smax,
+        act=np.array(act, dtype=np.int64),
         path=real["path"],
         cond=real["cond"],
     )
@@ -537,6 +545,13 @@ def _stack(parts: list[dict], key: str, shape_tail, dtype=float) -> np.ndarray:
     for r, part in enumerate(parts):
         arr = part[key]
         out[(r, *tuple(slice(0, k) for k in arr.shape))] = arr
+    return out
+
+
+def _stack_rows(lists: list[np.ndarray], fill: int) -> np.ndarray:
+    out = np.full((len(lists), max(a.size for a in lists)), fill, dtype=np.int64)
+    for r, a in enumerate(lists):
+        out[r, : a.size] = a
     return out
 
 
@@ -596,6 +611,8 @@ class NonlinearResult:
         acting just after ``t_j``), stuck friction its holding force.
     displacement, velocity : ndarray, shape (n_nl, n_samples)
         Element displacement ``c_d x`` (m, rad) and velocity ``c_v x`` (m/s, rad/s).
+        The displacement of a friction element is not tracked (NaN; it would cost a row
+        per step): give ``C`` an output row for it if it is wanted.
     stuck : ndarray of bool, shape (n_nl, n_samples)
         Whether each friction element is stuck at ``t_j`` (False for other elements).
     n_stick_events : ndarray of int, shape (n_nl,)
@@ -691,7 +708,7 @@ class NonlinearSystem:
             arr["g1i"], arr["cm"], arr["cmr"], arr["cmi"], arr["recr"], arr["reci"],
             arr["tomr"], arr["tomi"], arr["T"], arr["Bk"], arr["ad"], arr["bd0"], arr["bd1"],
             arr["ck"], arr["recb"], arr["tob"], arr["dr"], arr["hx"], arr["hw"], arr["sens"],
-            arr["kind"], arr["par"], arr["fbit"], arr["cd"], arr["cv"], 50,
+            arr["act"], arr["nact"], arr["kind"], arr["par"], arr["fbit"], arr["cd"], arr["cv"], 50,
             int(max_events_per_step),
         )
         y, f, disp, vel, stuck, n_stick, n_rev, fail = out
@@ -812,9 +829,8 @@ def prepare_nonlinear(A, B, C, D, dt: float, elements) -> NonlinearSystem:
             fbit[e] = len(fric)
             fric.append(e)
     bw = np.hstack([b, bnl])
-    # rows of every regime: [y; d; v; h; zero padding to a multiple of 4 (at least 4); t]
-    n_hot = max(4, -(-(n_out + 3 * n_nl) // 4) * 4)
-    n_rows = n_hot + n_nl
+    # rows of every regime: [y; d; v; h; t; one zero row]
+    n_rows = n_out + 4 * n_nl + 1
     c_rows = np.zeros((n_rows, n))
     c_rows[: n_out + 2 * n_nl] = np.vstack([c, cd, cv])
     d_rows = np.zeros((n_rows, n_in + n_nl))
@@ -845,7 +861,9 @@ def prepare_nonlinear(A, B, C, D, dt: float, elements) -> NonlinearSystem:
         bd1=st("bd1", (k_max, n_w)), ck=st("ck", (n_rows, k_max)),
         recb=st("recb", (n, k_max)), tob=st("tob", (k_max, n)),
         dr=st("dr", (n_rows, n_w)), hx=st("hx", (n_nl, n)), hw=st("hw", (n_nl, n_w)),
-        sens=st("sens", (n_hot, n_nl)), smax=np.array([p["smax"] for p in parts]),
+        sens=st("sens", (n_rows, n_nl)), smax=np.array([p["smax"] for p in parts]),
+        act=_stack_rows([p["act"] for p in parts], n_rows - 1),
+        nact=np.array([p["act"].size for p in parts], dtype=np.int64),
         kind=kind, par=par, fbit=fbit, cd=cd, cv=cv,
     )
     # one compiled signature: C-contiguous writeable float64/complex128/int64 arrays
