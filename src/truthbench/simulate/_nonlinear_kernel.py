@@ -1,13 +1,15 @@
 """The per-sample loop of :mod:`truthbench.simulate.nonlinear` (plain Python source).
 
 This module never imports numba. Its functions are written in the subset of Python that
-``numba.njit`` compiles, so the same source runs two ways with the same arithmetic:
+``numba.njit`` compiles, so the same source runs two ways (results agree to rounding;
+the compiled one may reassociate sums):
 
 * interpreted, as the always-available fallback (``backend="numpy"``; slow, meant for
   small systems and for checking the compiled engine);
 * compiled, by :mod:`truthbench.simulate._nonlinear_numba`, which re-binds every function
   here to a copy whose globals point at the compiled helpers and wraps it in
-  ``numba.njit(cache=True)``.
+  ``numba.njit(cache=True)``. Avoid literal integer arguments in calls between these
+  functions (numba would compile the callee once more for them).
 
 The system is a set of *regimes*, one per subset ``S`` of stuck friction elements
 (``r`` is the bit mask of ``S``). In each regime the motion is linear,
@@ -15,9 +17,11 @@ The system is a set of *regimes*, one per subset ``S`` of stuck friction element
 are zero: their holding forces are outputs), and is advanced exactly for a
 piecewise-linear ``w`` by diagonal complex modes ``z`` plus a small dense block ``xi``
 (see :mod:`truthbench.simulate.linear`). Every regime has the same output rows
-``[y (n_out); d; v; h; t (n_nl each)]``: outputs, element displacements and velocities,
-holding forces of the stuck elements, and the *trial* holding force of each slipping
-element (the force that would keep its velocity at zero, the others as they are).
+``[y (n_out); d; v; h; t (n_nl each); 0]``: outputs, element displacements and
+velocities, holding forces of the stuck elements, the *trial* holding force of each
+slipping element (the force that would keep its velocity at zero, the others as they
+are) and a zero row. Per step only the regime's *active* rows are computed (outputs,
+smooth elements' displacements, velocities of elements not stuck, holding forces).
 
 Per step the fast path advances the current regime over the whole step (precomputed
 weights), corrects the smooth element forces at the step end (Newton on the exact linear
@@ -684,13 +688,13 @@ def event_step(
                     if nk > 0:
                         for q in range(nk):
                             gt[q] = bblk[q, p] * jump
-                        advance(0, nk, s, tblk, zero_m, zero_k, qt, zero_m, gt, zero_k,
+                        advance(nk * 0, nk, s, tblk, zero_m, zero_k, qt, zero_m, gt, zero_k,
                                 span, zt, xt)
                         for q in range(nk):
                             xe[q] += xt[q]
                 continue
             trial_mask = mask | (1 << fbit[e])
-            forced = -1
+            forced = e - e - 1
         else:
             trial_mask = mask
             forced = e
@@ -839,7 +843,10 @@ def run(
     jac = np.zeros((n_nl, n_nl))
 
     # ---- initial regime -----------------------------------------------------------
-    mask = 0
+    # (integers derived from array sizes, not literals: numba would otherwise compile the
+    # callees once more for literal arguments)
+    zero = n_nl - n_nl
+    mask = zero
     for e in range(n_nl):
         de = 0.0
         ve = 0.0
@@ -861,7 +868,8 @@ def run(
     for e in range(n_nl):
         wa_s[n_in + e] = fsm[e]
     fill_input(0.0, wa_s, wa_s, n_in, kind, par, dirs, mask, fbit, w)
-    mask = settle(mask, -1, x0, w, n_in, kind, par, fbit, hx, hw, dirs, last_dir, n_rev, fresh)
+    mask = settle(mask, zero - 1, x0, w, n_in, kind, par, fbit, hx, hw, dirs, last_dir, n_rev,
+                  fresh)
     r = mask
     to_regime(nm_a[r], nk_a[r], tomr_a[r], tomi_a[r], tob_a[r], x0, zr, zi, xi)
     for p in range(n_w):
@@ -871,7 +879,7 @@ def run(
 
     record(0, hot, n_out, row_d, row_v, row_h, n_in, par, fbit, mask, dirs, is_smooth, wb_s,
            fsm, y, fo, disp, vel, stuck)
-    j = 0
+    j = zero
     while j < n_samples - 1:
         # the regime's arrays, invariant in the inner loop (which leaves when the regime
         # changes): loop-invariant views let LLVM vectorise the loops over modes
