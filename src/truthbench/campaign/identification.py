@@ -1,10 +1,14 @@
 """The identification stage of a campaign: modal parameters of every test.
 
-Each test's H1 FRFs are brought to one type (displacement-equivalent: each output row
-divided by ``(j omega)^k``, k = 1 for velocity, 2 for acceleration; strain counts as a
-displacement) and identified with pLSCF over the test's excited band
-(:func:`truthbench.identify_data.identify_frfs`). The modes feed sensitivity
-localization, the uncertainty model and the pole plot.
+Each test's H1 FRFs are brought to one type, acceleration-equivalent (each output row
+multiplied by ``(j omega)^(2 - k)``, k = 0 for displacement and strain, 1 for velocity,
+2 for acceleration), and identified with pLSCF over the test's excited band
+(:func:`truthbench.identify_data.identify_frfs`); the shapes come out in displacement
+units whatever the type. Accelerance, not receptance: the least-squares residue fit
+weighs the lines by the FRF's magnitude, and a receptance is dominated by the
+low-frequency suspension modes (their misfit spoiled the elastic shapes, MAC 0.84 for
+the third bending mode of the coverage campaign, against 0.9999 with accelerance).
+The modes feed sensitivity localization, the uncertainty model and the pole plot.
 """
 
 from __future__ import annotations
@@ -14,8 +18,8 @@ import numpy as np
 from truthbench.model import QUANTITIES
 
 
-def displacement_frf(spec, j: int, record) -> tuple[np.ndarray, np.ndarray]:
-    """FRFs of test ``j`` as displacement-equivalent, 0 Hz dropped.
+def acceleration_frf(spec, j: int, record) -> tuple[np.ndarray, np.ndarray]:
+    """FRFs of test ``j`` as acceleration-equivalent, 0 Hz dropped.
 
     Returns
     -------
@@ -28,7 +32,7 @@ def displacement_frf(spec, j: int, record) -> tuple[np.ndarray, np.ndarray]:
     f = record.freq_hz[keep]
     jw = 2j * np.pi * f
     q = np.array([QUANTITIES.index(k) for k in kinds])
-    return f, record.H[keep] / (jw[:, None] ** q[None, :])[:, :, None]
+    return f, record.H[keep] * (jw[:, None] ** (2 - q)[None, :])[:, :, None]
 
 
 def identify_test(spec, j: int, record, *, max_order: int = 40):
@@ -36,11 +40,11 @@ def identify_test(spec, j: int, record, *, max_order: int = 40):
     shapes over the test's sensors (displacement-equivalent units)."""
     from truthbench.identify_data import FRFData, identify_frfs
 
-    f, H = displacement_frf(spec, j, record)
+    f, H = acceleration_frf(spec, j, record)
     lo, hi = spec.tests[j].band_hz
     lo = max(lo, f[0])
     good = np.all(np.isfinite(H), axis=(1, 2))
-    data = FRFData(name=record.name, freq_hz=f[good], H=H[good], frf_type="displacement",
+    data = FRFData(name=record.name, freq_hz=f[good], H=H[good], frf_type="acceleration",
                    output_labels=record.output_labels, input_labels=record.input_labels,
                    band_hz=(lo, hi))
     return identify_frfs(data, method="plscf", max_order=max_order).modal
