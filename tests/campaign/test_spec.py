@@ -87,3 +87,22 @@ def test_unknown_update_method_and_group(quickstart_dict):
     quickstart_dict["update"]["parameters"] = ["E_pa@g9"]
     with pytest.raises(CampaignError, match=r"(?s)'update.parameters'.*no parameter 'E_pa@g9'"):
         parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_holdout_names_must_exist_and_leave_two_building_tests(quickstart_dict):
+    quickstart_dict["uncertainty"] = {"holdout": ["shaker_middle"]}
+    with pytest.raises(CampaignError, match=r"(?s)cfg.toml.*'uncertainty.holdout'.*"
+                                            r"shaker_end.*unknown \['shaker_middle'\]"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+    quickstart_dict["uncertainty"] = {"holdout": ["shaker_end"]}
+    with pytest.raises(CampaignError, match=r"'uncertainty.holdout': at least 2 tests"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+    quickstart_dict["uncertainty"] = {"k_sigma": -1.0}
+    with pytest.raises(CampaignError, match=r"'uncertainty.k_sigma'.*greater than 0"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_output_time_histories_choice(quickstart_dict):
+    quickstart_dict["output"] = {"time_histories": "some"}
+    with pytest.raises(CampaignError, match=r"(?s)'output.time_histories'.*first_trial"):
+        parse_campaign(quickstart_dict, "cfg.toml")

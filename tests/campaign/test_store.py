@@ -70,7 +70,8 @@ def test_accuracy_against_truth_is_stored_and_improves(small_dict, tmp_path):
 def test_methods_side_by_side_and_uncertainty_stage(small_dict, tmp_path):
     """Both updaters run on the same data; the uncertainty stage bounds the identified
     poles and records whether each test's true poles lie inside."""
-    from truthbench.report.accuracy import method_comparison_table, uncertainty_summary
+    from truthbench.report.accuracy import method_comparison_table, uncertainty_table
+    from truthbench.report.coverage import coverage_summary
 
     small_dict["update"]["method"] = ["finite_difference", "sensitivity"]
     # E alone: with shapes scaled to the model (no collocated mass scaling), modal data
@@ -91,6 +92,8 @@ def test_methods_side_by_side_and_uncertainty_stage(small_dict, tmp_path):
     assert list(comp["method"]) == ["none", "finite_difference", "sensitivity"]
     rms = comp["parameter RMS error [%]"]
     assert (rms.iloc[1:] < rms.iloc[0]).all()
-    table, cov = uncertainty_summary(data)
-    assert cov is not None and cov["n"] == tr.uncertainty.inside.size
+    table = uncertainty_table(data)
+    cov = coverage_summary(data)
+    assert len(table) == len(tr.uncertainty.names)
+    assert cov.in_sample.n_total == tr.uncertainty.inside.size and cov.holdout is None
     assert tr.uncertainty.theta_tests.shape[0] == 3

@@ -24,6 +24,7 @@ decaying pole to fall by 1e-6 (at least one segment, at most four records, see
 
 from __future__ import annotations
 
+import time
 import traceback
 from dataclasses import dataclass, field
 
@@ -91,6 +92,9 @@ class TrialResult:
     """Every updater's result by name (or its error message)."""
     uncertainty: object | None = None
     """:class:`~truthbench.campaign.uncertainty_stage.UncertaintyStage`, or None."""
+    seconds: dict = field(default_factory=dict)
+    """Wall-clock seconds per stage (:data:`STAGES`); not part of the results' identity
+    (they vary from run to run)."""
 
 
 @dataclass(frozen=True)
@@ -102,7 +106,12 @@ class CampaignResult:
     version: str
     nominal: dict
     trials: tuple[TrialResult, ...]
-    stage_seconds: dict = field(default_factory=dict)
+
+    @property
+    def stage_seconds(self) -> dict:
+        """Wall-clock seconds per stage summed over the trials (worker time, not elapsed
+        time)."""
+        return {k: float(sum(t.seconds.get(k, 0.0) for t in self.trials)) for k in STAGES}
 
 
 def excitation_rng(seed: int, trial: int, test: int) -> np.random.Generator:
@@ -255,8 +264,10 @@ def simulate_test(spec: CampaignSpec, j: int, setup, rng: np.random.Generator):
     return u, y
 
 
-def measure_test(spec: CampaignSpec, j: int, u, y, params: dict) -> TestRecord:
-    """H1 FRFs and coherence of test ``j`` from its time histories."""
+def measure_test(spec: CampaignSpec, j: int, u, y, params: dict, *,
+                 identify: bool = True) -> TestRecord:
+    """H1 FRFs and coherence of test ``j`` from its time histories, then (if
+    ``identify`` and the campaign identifies) its modes (:func:`identify_record`)."""
     from truthbench.measure import estimate_frf
 
     test = spec.tests[j]
@@ -266,14 +277,20 @@ def measure_test(spec: CampaignSpec, j: int, u, y, params: dict) -> TestRecord:
     record = TestRecord(test.name, est.freq_hz, est.H, est.coherence, u, y, test.fs_hz,
                         dict(params), tuple(a.label for a in acts),
                         tuple(s.label for s in sens))
-    if spec.identify.enabled:
-        from dataclasses import replace
+    return identify_record(spec, j, record) if identify else record
 
-        from truthbench.campaign.identification import identify_test
 
-        record = replace(record, modes=identify_test(spec, j, record,
-                                                     max_order=spec.identify.max_order))
-    return record
+def identify_record(spec: CampaignSpec, j: int, record: TestRecord) -> TestRecord:
+    """``record`` with its identified modes (pLSCF), or unchanged when the campaign's
+    ``[identify] enabled`` is false."""
+    if not spec.identify.enabled:
+        return record
+    from dataclasses import replace
+
+    from truthbench.campaign.identification import identify_test
+
+    return replace(record, modes=identify_test(spec, j, record,
+                                               max_order=spec.identify.max_order))
 
 
 def truth_record(setup) -> dict:
@@ -415,68 +432,124 @@ def simulate_one(spec: CampaignSpec, trial: int, j: int, seed: int | None = None
     return measure_test(spec, j, u, y, truth_record(setup))
 
 
+STAGES = ("simulate", "frf", "identify", "bound", "update", "score")
+"""Stages timed per trial (:attr:`TrialResult.seconds`): truth simulation, FRF
+estimation, modal identification, the uncertainty model, the updaters, and scoring
+against the truth (model FRFs and modal accuracy)."""
+
+
+class _Stopwatch:
+    """Wall-clock seconds accumulated per stage: ``with watch("frf"): ...``."""
+
+    def __init__(self):
+        self.seconds = dict.fromkeys(STAGES, 0.0)
+        self._stage = None
+
+    def __call__(self, stage: str):
+        self._stage = stage
+        return self
+
+    def __enter__(self):
+        self._t0 = time.perf_counter()
+
+    def __exit__(self, *exc):
+        self.seconds[self._stage] += time.perf_counter() - self._t0
+
+
+def _keeps_time_histories(spec: CampaignSpec, trial: int) -> bool:
+    keep = spec.output.time_histories
+    return keep == "all" or (keep == "first_trial" and trial == 0)
+
+
 def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
-    """Run one Monte Carlo trial; a failure is recorded, not raised."""
+    """Run one Monte Carlo trial; a failure is recorded, not raised.
+
+    BLAS runs single-threaded inside a trial (``threadpoolctl``): the matrices are small
+    (hundreds of DOFs), where threads only add overhead, and parallelism comes from
+    running trials side by side.
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run_trial(spec, trial, seed)
+
+
+def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
+    from dataclasses import replace
+
     from truthbench.campaign.truth import build_test_setup
 
     truth = spec.truth_parameters()
     records: list[TestRecord] = []
+    watch = _Stopwatch()
     try:
         for j in range(len(spec.tests)):
-            setup = build_test_setup(spec, trial, j, seed)
-            u, y = simulate_test(spec, j, setup, excitation_rng(seed, trial, j))
-            records.append(measure_test(spec, j, u, y, truth_record(setup)))
+            with watch("simulate"):
+                setup = build_test_setup(spec, trial, j, seed)
+                u, y = simulate_test(spec, j, setup, excitation_rng(seed, trial, j))
+            with watch("frf"):
+                record = measure_test(spec, j, u, y, truth_record(setup), identify=False)
+            with watch("identify"):
+                record = identify_record(spec, j, record)
+            if not _keeps_time_histories(spec, trial):
+                record = replace(record, u=record.u[:, :0], y=record.y[:, :0])
+            records.append(record)
         truth = hardware_truth(spec, records)
         nominal = spec.nominal_parameters()
         stage = None
         if len(records) > 1 and spec.identify.enabled:
             from truthbench.campaign.uncertainty_stage import uncertainty_stage
 
-            stage = uncertainty_stage(spec, trial, seed, records, nominal)
+            with watch("bound"):
+                stage = uncertainty_stage(spec, trial, seed, records, nominal)
         methods = spec.update_methods()
         if not methods:
-            return TrialResult(trial, tuple(records), truth, uncertainty=stage)
+            return TrialResult(trial, tuple(records), truth, uncertainty=stage,
+                               seconds=watch.seconds)
         from truthbench.campaign.metrics import modal_accuracy
 
-        hardware = build_test_setup(spec, trial, 0, seed)
-        accuracy = {"initial": modal_accuracy(spec, hardware, nominal)}
+        with watch("score"):
+            hardware = build_test_setup(spec, trial, 0, seed)
+            accuracy = {"initial": modal_accuracy(spec, hardware, nominal)}
         comparison = {}
         for method in methods:
             try:
-                res, masks = update_trial(spec, records, method)
+                with watch("update"):
+                    res, masks = update_trial(spec, records, method)
             except Exception as exc:  # one method failing does not lose the others
                 if method == methods[0]:
                     raise
                 comparison[method] = f"{type(exc).__name__}: {exc}"
                 continue
             comparison[method] = res
-            accuracy[method] = modal_accuracy(spec, hardware, {**nominal, **res.as_dict()})
+            with watch("score"):
+                accuracy[method] = modal_accuracy(spec, hardware,
+                                                  {**nominal, **res.as_dict()})
             if method == methods[0]:
                 result = res
         updated = {**nominal, **result.as_dict()}
         accuracy["updated"] = accuracy[methods[0]]
-        if stage is not None:
-            from dataclasses import replace
+        with watch("score"):
+            if stage is not None:
+                from truthbench.campaign.uncertainty_stage import model_values
 
-            from truthbench.campaign.uncertainty_stage import model_values
-
-            stage = replace(stage, theta_updated=model_values(spec, updated, stage.mode_index))
-        full = [np.ones_like(rec.freq_hz, dtype=bool) for rec in records]
-        full = [m & (rec.freq_hz > 0) for m, rec in zip(full, records, strict=True)]
+                stage = replace(stage,
+                                theta_updated=model_values(spec, updated, stage.mode_index))
+            full = [(rec.freq_hz > 0) for rec in records]
+            h_initial = tuple(model_frfs(spec, nominal, records, full))
+            h_updated = tuple(model_frfs(spec, updated, records, full))
         return TrialResult(
-            trial, tuple(records), truth, result,
-            tuple(model_frfs(spec, nominal, records, full)),
-            tuple(model_frfs(spec, updated, records, full)), tuple(masks), accuracy,
-            comparison=comparison, uncertainty=stage)
+            trial, tuple(records), truth, result, h_initial, h_updated, tuple(masks),
+            accuracy, comparison=comparison, uncertainty=stage, seconds=watch.seconds)
     except Exception as exc:  # recorded per trial; the campaign goes on
         msg = f"{type(exc).__name__}: {exc}"
         if not isinstance(exc, ValueError | RuntimeError):
             msg += "\n" + traceback.format_exc(limit=3)
-        return TrialResult(trial, tuple(records), truth, error=msg)
+        return TrialResult(trial, tuple(records), truth, error=msg, seconds=watch.seconds)
 
 
 def run_campaign(spec: CampaignSpec, *, trials: int | None = None, seed: int | None = None,
-                 n_jobs: int = 1) -> CampaignResult:
+                 n_jobs: int | None = 1) -> CampaignResult:
     """Run every trial of a campaign.
 
     Parameters
@@ -484,8 +557,13 @@ def run_campaign(spec: CampaignSpec, *, trials: int | None = None, seed: int | N
     spec : CampaignSpec
     trials, seed : int, optional
         Override the campaign's ``trials`` and ``seed``.
-    n_jobs : int
-        Parallel workers (joblib); results are identical for any value.
+    n_jobs : int or None
+        Parallel workers for :class:`joblib.Parallel`; None takes joblib's active
+        configuration. The backend is joblib's too, so
+        ``with joblib.parallel_config(backend="dask"): run_campaign(spec, n_jobs=-1)``
+        runs the trials on a ``dask.distributed`` cluster without code changes. Results
+        are identical for any worker count and backend (every trial draws from its own
+        seed streams).
     """
     from joblib import Parallel, delayed
 
@@ -493,9 +571,6 @@ def run_campaign(spec: CampaignSpec, *, trials: int | None = None, seed: int | N
     if n_trials < 1:
         raise ValueError(f"trials must be >= 1; got {n_trials}")
     seed = spec.campaign.seed if seed is None else int(seed)
-    if n_jobs == 1 or n_trials == 1:
-        results = [run_trial(spec, i, seed) for i in range(n_trials)]
-    else:
-        results = Parallel(n_jobs=n_jobs)(delayed(run_trial)(spec, i, seed)
-                                          for i in range(n_trials))
+    results = Parallel(n_jobs=n_jobs)(delayed(run_trial)(spec, i, seed)
+                                      for i in range(n_trials))
     return CampaignResult(spec, seed, __version__, spec.nominal_parameters(), tuple(results))

@@ -120,6 +120,26 @@ class UpdateSpec(_Strict):
     scheme: Literal["central", "forward"] = "central"
 
 
+class UncertaintySpec(_Strict):
+    """The uncertainty model of the tests (Eq. 10.46-10.50) and its check against truth."""
+
+    k_sigma: PositiveFloat = 3.0
+    """Bound multiplier (Eq. 10.50 uses 3)."""
+    band_hz: tuple[NonNegFloat, PositiveFloat] | None = None
+    """The modes the bound covers; default the update band, else the tests' span."""
+    holdout: list[str] = Field(default_factory=list)
+    """Names of tests that do not build the bound; their true modal parameters are new
+    draws against it (the calibration the Monte Carlo report scores)."""
+
+
+class OutputSpec(_Strict):
+    """What the results file keeps."""
+
+    time_histories: Literal["first_trial", "all", "none"] = "first_trial"
+    """Recorded time histories (u, y) of every test: of trial 0 only, of every trial, or
+    of none (FRFs, truth records and modes are always kept)."""
+
+
 class CampaignSpec(_Strict):
     """A validated campaign (frozen)."""
 
@@ -130,6 +150,8 @@ class CampaignSpec(_Strict):
     tests: Annotated[list[TestSpec], Field(min_length=1)]
     identify: IdentifySpec = Field(default_factory=IdentifySpec)
     update: UpdateSpec = Field(default_factory=UpdateSpec)
+    uncertainty: UncertaintySpec = Field(default_factory=UncertaintySpec)
+    output: OutputSpec = Field(default_factory=OutputSpec)
     source: str = "<memory>"
 
     def make_plant(self):
@@ -288,6 +310,14 @@ def _check_references(spec: CampaignSpec) -> None:
     if dup:
         raise CampaignError(f"{src}: key 'tests': test names must be unique; "
                             f"got {sorted(dup)} more than once")
+    unknown = [h for h in spec.uncertainty.holdout if h not in names]
+    if unknown:
+        raise CampaignError(f"{src}: key 'uncertainty.holdout': expected names of tests "
+                            f"({names}); got unknown {unknown}")
+    if spec.uncertainty.holdout and len(names) - len(set(spec.uncertainty.holdout)) < 2:
+        raise CampaignError(f"{src}: key 'uncertainty.holdout': at least 2 tests must build "
+                            f"the bound; {len(names)} tests with "
+                            f"{len(set(spec.uncertainty.holdout))} held out leave fewer")
     for j, t in enumerate(spec.tests):
         for i, a in enumerate(t.actuators):
             check_station(a.station, f"tests[{j}].actuators[{i}].station")

@@ -7,7 +7,9 @@ Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
     /nominal               attrs: parameter -> value
     /trials/0000           attrs: status ("ok" | "failed"), error
         truth              attrs: parameter -> value
-        tests/<name>       datasets freq_hz, H, coherence, u, y;
+        seconds            attrs: stage -> wall-clock seconds (runner.STAGES)
+        tests/<name>       datasets freq_hz, H, coherence, u, y (u, y empty for trials
+                           whose time histories the campaign's [output] does not keep);
                            attrs fs_hz, input_labels, output_labels
         tests/<name>/parameters   attrs: the exact truth parameters of this test
         tests/<name>/identified   datasets freq_hz, damping_ratio, shapes (pLSCF)
@@ -20,7 +22,8 @@ Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
                            at the sensors: truth_freq_hz, freq_error_pct,
                            damping_error_pct, mac
         uncertainty        names, theta_0, theta_tests, theta_truth (per test), mean, std,
-                           bound (Eq. 10.46-10.50), inside (truth within the bound)
+                           bound (Eq. 10.46-10.50), inside (truth within the bound),
+                           holdout (tests that did not build the bound)
 
 A failed trial is written with what it had computed, so nothing is lost.
 """
@@ -65,6 +68,7 @@ def write_results(result, path: str | Path) -> Path:
             g.attrs["status"] = "failed" if tr.error else "ok"
             g.attrs["error"] = tr.error or ""
             _attrs(g.create_group("truth"), tr.truth)
+            _attrs(g.create_group("seconds"), tr.seconds)
             tests = g.create_group("tests")
             for rec in tr.tests:
                 t = tests.create_group(rec.name)
@@ -81,7 +85,7 @@ def write_results(result, path: str | Path) -> Path:
                 st = g.create_group("uncertainty")
                 st.create_dataset("names", data=np.array(tr.uncertainty.names, dtype="S"))
                 for name in ("theta_0", "theta_tests", "theta_truth", "mean", "std", "bound",
-                             "inside", "mode_index", "theta_updated"):
+                             "inside", "mode_index", "holdout", "theta_updated"):
                     if getattr(tr.uncertainty, name) is not None:
                         st.create_dataset(name, data=getattr(tr.uncertainty, name))
             if tr.update is not None:

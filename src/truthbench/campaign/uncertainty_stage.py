@@ -4,9 +4,11 @@ For every test the identified modes are paired (MAC at the test's sensors, frequ
 distance) with the initial model's modes inside the analysis band; model modes paired
 in every test give the per-test parameter sets ``theta_j = [f_1..f_k, zeta_1..zeta_k]``.
 With ``theta_0`` the initial model's values, :func:`truthbench.uncertainty.uncertainty_model`
-gives the mean error and the 3-sigma bound. Each test's TRUE modal parameters (the modes
-of that test's hardware, paired the same way) are checked against the bound: the
-coverage that the Monte Carlo report aggregates.
+gives the mean error and the k-sigma bound from the tests that are not held out
+(``[uncertainty] holdout``). Each test's TRUE modal parameters (the modes of that test's
+hardware, paired the same way) are checked against the bound: for the tests that built
+it (in-sample) and for the held-out tests (new draws, the calibration the Monte Carlo
+report scores against :func:`truthbench.uncertainty.expected_coverage`).
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ class UncertaintyStage:
         Mean error, standard deviation, 3-sigma bound of Eq. 10.47-10.50.
     inside : ndarray of bool, shape (T, p)
         True values inside ``theta_0 + mean +- bound``.
+    holdout : ndarray of bool, shape (T,)
+        Tests that did not build the bound.
     mode_index : ndarray of int, shape (k,)
         The paired modes' indices among the initial model's modes in the band.
     theta_updated : ndarray, shape (p,)
@@ -49,16 +53,29 @@ class UncertaintyStage:
     bound: np.ndarray
     inside: np.ndarray
     mode_index: np.ndarray
+    holdout: np.ndarray
     theta_updated: np.ndarray | None = None
+
+    @property
+    def n_build(self) -> int:
+        """Number of tests that built the bound."""
+        return int(np.count_nonzero(~self.holdout))
+
+
+def uncertainty_band(spec) -> tuple[float, float]:
+    """``[uncertainty] band_hz``, else the analysis band (update band or the tests')."""
+    from truthbench.campaign.metrics import analysis_band
+
+    return tuple(spec.uncertainty.band_hz or analysis_band(spec))
 
 
 def model_values(spec, params: dict, mode_index) -> np.ndarray:
     """``[f..., zeta...]`` of the model at ``params`` for the initial model's modes
     ``mode_index`` (paired by MAC at the first test's sensors)."""
-    from truthbench.campaign.metrics import analysis_band, displacement_sensors, modes_at_sensors
+    from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
 
     sensors = displacement_sensors(spec.test_sensors(0))
-    band = analysis_band(spec)
+    band = uncertainty_band(spec)
     plant = spec.make_plant()
     ref = modes_at_sensors(plant.build(spec.nominal_parameters(), [], sensors), sensors,
                            band, 40)
@@ -85,12 +102,12 @@ def _pair(reference, other):
 def uncertainty_stage(spec, trial: int, seed: int, records, params0: dict):
     """The uncertainty model of one trial's tests, or None when fewer than two tests
     identified a common mode (nothing to bound)."""
-    from truthbench.campaign.metrics import analysis_band, displacement_sensors, modes_at_sensors
+    from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
     from truthbench.campaign.truth import build_test_setup
     from truthbench.identify import ModalParameters
     from truthbench.uncertainty import uncertainty_model
 
-    band = analysis_band(spec)
+    band = uncertainty_band(spec)
     plant = spec.make_plant()
     f_t, z_t, f_true, z_true = [], [], [], []
     ref = None
@@ -122,7 +139,10 @@ def uncertainty_stage(spec, trial: int, seed: int, records, params0: dict):
     theta_0 = np.concatenate([ref.freq_hz[idx], ref.damping_ratio[idx]])
     tests = np.hstack([f_t[:, idx], z_t[:, idx]])
     truth = np.hstack([np.array(f_true)[:, idx], np.array(z_true)[:, idx]])
-    um = uncertainty_model(tests, theta_0, names=names, covariance="diagonal")
+    holdout = np.array([t.name in spec.uncertainty.holdout for t in spec.tests])
+    um = uncertainty_model(tests[~holdout], theta_0, names=names, covariance="diagonal",
+                           k_sigma=spec.uncertainty.k_sigma)
     inside = um.contains(truth)
     return UncertaintyStage(names, theta_0, tests, truth, np.asarray(um.mean),
-                            np.asarray(um.std), np.asarray(um.bound), np.asarray(inside), idx)
+                            np.asarray(um.std), np.asarray(um.bound), np.asarray(inside), idx,
+                            holdout)

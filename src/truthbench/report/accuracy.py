@@ -146,35 +146,25 @@ def method_comparison_table(results: dict):
     return pd.DataFrame(rows)
 
 
-def uncertainty_summary(results: dict):
-    """The first trial's uncertainty model (Eq. 10.46-10.50) and the coverage of the
-    3-sigma bound over all trials (true per-test parameters inside it), with a 95 %
-    Wilson interval and the Student-t expectation for the number of tests."""
+def uncertainty_table(results: dict):
+    """The first trial's uncertainty model (Eq. 10.46-10.50): per parameter the initial
+    model, mean error, standard deviation, bound, and how many building tests and true
+    per-test values lie inside it (empty DataFrame when no trial has one)."""
     import pandas as pd
 
     trials = [(k, t) for k, t in _trials(results) if k != "attrs" and "uncertainty" in t]
     if not trials:
-        return pd.DataFrame(), None
+        return pd.DataFrame()
     u = trials[0][1]["uncertainty"]
     names = [n.decode() if isinstance(n, bytes) else n for n in u["names"]]
-    table = pd.DataFrame({"parameter": names, "initial model": u["theta_0"],
-                          "mean error": u["mean"], "std": u["std"],
-                          "3-sigma bound": u["bound"],
-                          "tests inside": [int(np.sum(np.abs(u["theta_tests"][:, i]
-                                                             - u["theta_0"][i]
-                                                             - u["mean"][i])
-                                                      <= u["bound"][i]))
-                                           for i in range(len(names))],
-                          "truth inside": u["inside"].sum(axis=0)})
-    inside = np.concatenate([np.asarray(t["uncertainty"]["inside"]).ravel()
-                             for _, t in trials])
-    from truthbench.uncertainty import coverage_fraction, expected_coverage
-
-    cov = coverage_fraction(inside)
-    n_tests = u["theta_tests"].shape[0]
-    return table, {"coverage": cov, "n": inside.size,
-                   "expected_t": expected_coverage(3.0, n_tests),
-                   "expected_normal": expected_coverage(3.0)}
+    build = ~np.asarray(u.get("holdout", np.zeros(u["theta_tests"].shape[0], bool)), bool)
+    centre = u["theta_0"] + u["mean"]
+    return pd.DataFrame({
+        "parameter": names, "initial model": u["theta_0"], "mean error": u["mean"],
+        "std": u["std"], "bound": u["bound"],
+        "tests inside": np.sum(np.abs(u["theta_tests"][build] - centre) <= u["bound"],
+                               axis=0),
+        "truth inside": u["inside"].sum(axis=0), "tests": len(build)})
 
 
 def plot_frfs(results: dict, path: Path, max_outputs: int = 3) -> Path | None:
@@ -262,6 +252,48 @@ def _md_table(df) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _uncertainty_section(results: dict, utab, out: Path) -> list[str]:
+    from truthbench.report.coverage import coverage_summary, plot_calibration_figure
+
+    cov = coverage_summary(results)
+    k = cov.k_sigma
+    lines = ["## Uncertainty model (Eq. 10.46-10.50)", "",
+             f"Identified per-test frequencies and damping ratios minus the initial model; "
+             f"mean error and {k:g}-sigma bound from the {cov.n_build} building tests "
+             f"(first trial). 'truth inside' counts the tests (building and held out) "
+             f"whose true modal parameters lie inside the bound.", ""]
+    lines.append(_md_table(utab))
+    c = cov.in_sample
+    expect = ("" if cov.in_sample_expected is None else
+              f"; a normal population predicts {cov.in_sample_expected:.4f} for identified "
+              f"values, since a test that builds the bound is inside it almost by "
+              f"construction")
+    lines += ["", f"In-sample coverage over {cov.n_trials} trial(s): {c.fraction:.4f} of "
+                  f"{c.n_total} true parameters of the building tests inside their bound "
+                  f"(95 % interval {c.ci_low:.4f}-{c.ci_high:.4f}){expect}.", ""]
+    if cov.holdout is not None:
+        h = cov.holdout
+        lines += [f"**Held-out coverage** (the bound's calibration): {h.fraction:.4f} of "
+                  f"{h.n_total} true parameters of held-out tests inside the bound (95 % "
+                  f"interval {h.ci_low:.4f}-{h.ci_high:.4f}); a normal population with "
+                  f"its variance estimated from {cov.n_build} tests predicts "
+                  f"{cov.holdout_expected:.4f} (Student-t; "
+                  f"{'inside' if h.agrees_with(cov.holdout_expected) else 'OUTSIDE'} the "
+                  f"interval). The parameters of one trial move together, so the pooled "
+                  f"interval is optimistic; per parameter:", ""]
+        lines.append(_md_table(cov.per_parameter))
+        lines += ["A shortfall means the truth varies in ways the tests do not sample, or "
+                  "the identification is biased (the bound is built from identified values, "
+                  "the truth is not).", ""]
+        png = plot_calibration_figure(cov, out / "calibration.png")
+        if png is not None:
+            lines += ["![Calibration of the bound](calibration.png)", ""]
+    png = plot_poles(results, out / "poles.png")
+    if png is not None:
+        lines += ["![Pole plot (Figure 10.6)](poles.png)", ""]
+    return lines
+
+
 def write_report(results: dict, out_dir: str | Path) -> Path:
     """Write ``report.md`` and ``frf.png`` for a results file read by
     :func:`~truthbench.campaign.store.read_results`."""
@@ -337,24 +369,9 @@ def write_report(results: dict, out_dir: str | Path) -> Path:
                   ""]
         lines.append(_md_table(comp))
         lines.append("")
-    utab, cov = uncertainty_summary(results)
-    if cov is not None:
-        c = cov["coverage"]
-        lines += ["## Uncertainty model (Eq. 10.46-10.50)", "",
-                  "Identified per-test frequencies and damping ratios minus the initial "
-                  "model; mean error and 3-sigma bound (first trial); 'truth inside' counts "
-                  "the tests whose true modal parameters lie inside the bound.", ""]
-        lines.append(_md_table(utab))
-        lines += ["", f"Coverage over all trials: {c.fraction:.4f} of {cov['n']} true "
-                      f"per-test parameters inside the 3-sigma bound (95 % interval "
-                      f"{c.ci_low:.4f}-{c.ci_high:.4f}); a normal population with the variance "
-                      f"estimated from these tests predicts "
-                      f"{cov['expected_t']:.4f} (Student-t), {cov['expected_normal']:.4f} "
-                      f"with the variance known. A shortfall means the truth varies in ways "
-                      f"the tests do not sample, or the identification is biased.", ""]
-        png = plot_poles(results, out / "poles.png")
-        if png is not None:
-            lines += ["![Pole plot (Figure 10.6)](poles.png)", ""]
+    utab = uncertainty_table(results)
+    if not utab.empty:
+        lines += _uncertainty_section(results, utab, out)
     lines += ["## FRF error over the update band", ""]
     lines.append(_md_table(frf_error_table(results)))
     if failed:
