@@ -333,15 +333,20 @@ def update_masks(spec: CampaignSpec, records) -> list[np.ndarray]:
 
 
 def model_frfs(spec: CampaignSpec, params: dict, records, masks) -> list[np.ndarray]:
-    """The model FRFs at each test's update lines, one array per test."""
-    plant = spec.make_plant()
+    """The model FRFs at each test's update lines, one array per test.
+
+    One model carries every test's actuators and sensors, so the structure is assembled
+    and solved once per parameter set; each test takes its own rows and columns."""
+    ios = [_io(spec, j) for j in range(len(records))]
+    acts = list(dict.fromkeys(a for a_j, _ in ios for a in a_j))
+    sens = list(dict.fromkeys(s for _, s_j in ios for s in s_j))
+    model = spec.make_plant().build(params, acts, sens)
+    modes = model.modes()
     out = []
-    modes = None  # every test shares the structure: one eigensolution per parameter set
-    for j, (rec, mask) in enumerate(zip(records, masks, strict=True)):
-        acts, sens = _io(spec, j)
-        model = plant.build(params, acts, sens)
-        modes = model.modes() if modes is None else modes
-        out.append(model.frf(rec.freq_hz[mask], modes=modes))
+    for (a_j, s_j), rec, mask in zip(ios, records, masks, strict=True):
+        rows = [sens.index(s) for s in s_j]
+        cols = [acts.index(a) for a in a_j]
+        out.append(model.frf(rec.freq_hz[mask], modes=modes)[:, rows][:, :, cols])
     return out
 
 

@@ -19,9 +19,8 @@ import scipy.sparse as sp
 
 from truthbench.fe.beam import (
     element_matrices,
-    rotation_matrix,
-    sag_rotation,
-    transformation_matrix,
+    rotation_matrices,
+    sag_rotations,
 )
 
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
@@ -167,9 +166,10 @@ def assemble(
             raise ValueError(f"sag_angles_rad must have shape ({n_el},); "
                              f"got {sag_angles_rad.shape}")
     lengths = mesh.element_lengths_m
-    rows, cols, kv, mv = [], [], [], []
+    k_loc = np.empty((n_el, 12, 12))
+    m_loc = np.empty((n_el, 12, 12))
     cache: dict = {}
-    for e, (na, nb) in enumerate(mesh.elements):
+    for e in range(n_el):
         props = properties[mesh.groups[e]]
         try:
             key = tuple(float(props[k]) for k in SECTION_KEYS) + (round(lengths[e], 12),)
@@ -179,25 +179,35 @@ def assemble(
         if key not in cache:
             E, nu, rho, r, t, _ = key
             cache[key] = element_matrices(E, nu, rho, r, t, lengths[e], timoshenko=timoshenko)
-        k_loc, m_loc = cache[key]
-        R = rotation_matrix(mesh.nodes_m[nb] - mesh.nodes_m[na], up_vector)
-        if sag_angles_rad is not None:
-            R = sag_rotation(sag_angles_rad[e]) @ R
-        T = transformation_matrix(R)
-        kg = T.T @ k_loc @ T
-        mg = T.T @ m_loc @ T
-        dofs = np.concatenate([6 * na + np.arange(6), 6 * nb + np.arange(6)])
-        rr, cc = np.meshgrid(dofs, dofs, indexing="ij")
-        rows.append(rr.ravel())
-        cols.append(cc.ravel())
-        kv.append(kg.ravel())
-        mv.append(mg.ravel())
+        k_loc[e], m_loc[e] = cache[key]
+    na, nb = mesh.elements[:, 0], mesh.elements[:, 1]
+    R = rotation_matrices(mesh.nodes_m[nb] - mesh.nodes_m[na], up_vector)  # (n_el, 3, 3)
+    if sag_angles_rad is not None:
+        R = np.einsum("eij,ejk->eik", sag_rotations(sag_angles_rad), R)
+    # T = blockdiag(R, R, R, R): k_g = T^T k T, done block by block
+    kg = _rotate(k_loc, R)
+    mg = _rotate(m_loc, R)
+    dofs = np.concatenate([6 * na[:, None] + np.arange(6), 6 * nb[:, None] + np.arange(6)],
+                          axis=1)  # (n_el, 12)
+    rows = [np.repeat(dofs, 12, axis=1).ravel()]
+    cols = [np.tile(dofs, (1, 12)).ravel()]
+    kv, mv = [kg.ravel()], [mg.ravel()]
     n = mesh.n_dofs
     r_all, c_all = np.concatenate(rows), np.concatenate(cols)
     K = sp.csr_matrix((np.concatenate(kv), (r_all, c_all)), shape=(n, n))
     M = sp.csr_matrix((np.concatenate(mv), (r_all, c_all)), shape=(n, n))
     # exact symmetry (rounding in T^T k T can leave 1e-16 asymmetry)
     return ((K + K.T) * 0.5).tocsr(), ((M + M.T) * 0.5).tocsr()
+
+
+def _rotate(a: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """``T^T a T`` for every element, ``T = blockdiag(R, R, R, R)``.
+
+    a : (n_el, 12, 12), R : (n_el, 3, 3) -> (n_el, 12, 12)."""
+    n = a.shape[0]
+    blocks = a.reshape(n, 4, 3, 4, 3)
+    out = np.einsum("eki,eakbl,elj->eaibj", R, blocks, R, optimize=True)
+    return out.reshape(n, 12, 12)
 
 
 @dataclass(frozen=True)

@@ -204,23 +204,39 @@ def rotation_matrix(axis_vector: np.ndarray, up_vector: np.ndarray | None = None
     R : ndarray, shape (3, 3)
         Rows are the local x, y, z unit vectors in global components.
     """
-    ex = np.asarray(axis_vector, dtype=float)
-    n = np.linalg.norm(ex)
-    if not n > 0:
+    return rotation_matrices(np.asarray(axis_vector, dtype=float)[None, :], up_vector)[0]
+
+
+def rotation_matrices(axis_vectors: np.ndarray, up_vector: np.ndarray | None = None
+                      ) -> np.ndarray:
+    """:func:`rotation_matrix` of many elements at once.
+
+    Parameters
+    ----------
+    axis_vectors : array_like, shape (n, 3)
+    up_vector : array_like, shape (3,), optional
+
+    Returns
+    -------
+    R : ndarray, shape (n, 3, 3)
+    """
+    ex = np.asarray(axis_vectors, dtype=float)
+    n = np.linalg.norm(ex, axis=1)
+    if not np.all(n > 0):
         raise ValueError("element axis has zero length (nodes A and B coincide)")
-    ex = ex / n
+    ex = ex / n[:, None]
     if up_vector is None:
-        up_vector = np.array([0.0, 0.0, 1.0])
-        if abs(ex @ up_vector) > 0.999:
-            up_vector = np.array([0.0, 1.0, 0.0])
-    up = np.asarray(up_vector, dtype=float)
+        up = np.tile([0.0, 0.0, 1.0], (len(ex), 1))
+        up[np.abs(ex[:, 2]) > 0.999] = [0.0, 1.0, 0.0]
+    else:
+        up = np.broadcast_to(np.asarray(up_vector, dtype=float), ex.shape)
     ey = np.cross(up, ex)
-    ny = np.linalg.norm(ey)
-    if ny < 1e-9:
+    ny = np.linalg.norm(ey, axis=1)
+    if np.any(ny < 1e-9):
         raise ValueError("up_vector is parallel to the element axis; choose another")
-    ey /= ny
+    ey /= ny[:, None]
     ez = np.cross(ex, ey)
-    return np.vstack([ex, ey, ez])
+    return np.stack([ex, ey, ez], axis=1)
 
 
 def transformation_matrix(R: np.ndarray) -> np.ndarray:
@@ -235,5 +251,12 @@ def sag_rotation(theta_rad: float) -> np.ndarray:
     applied to translations and rotations of both nodes it tilts the element by the sag
     angle theta in its vertical (x-z) plane: ``k_def = T^T k T``.
     """
+    return sag_rotations(np.array([theta_rad], dtype=float))[0]
+
+
+def sag_rotations(theta_rad: np.ndarray) -> np.ndarray:
+    """:func:`sag_rotation` of many angles, shape (n,) -> (n, 3, 3)."""
     c, s = np.cos(theta_rad), np.sin(theta_rad)
-    return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+    out = np.zeros((len(c), 3, 3))
+    out[:, 0, 0], out[:, 0, 2], out[:, 1, 1], out[:, 2, 0], out[:, 2, 2] = c, -s, 1.0, s, c
+    return out
