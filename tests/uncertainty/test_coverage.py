@@ -123,3 +123,29 @@ def test_errors():
         bound_coverage(np.zeros((4, 5, 3)), np.zeros((4, 2)))
     with pytest.raises(ValueError, match="finite"):
         bound_coverage(np.full((4, 5, 3), np.nan))
+
+
+def test_trial_clustered_interval_counts_trials_not_correlated_events():
+    """m identical events per trial carry the information of one: the clustered interval
+    equals the Wilson interval of N - 1 events, where plain Wilson would use N m."""
+    from truthbench.uncertainty.coverage import _wilson
+
+    rng = np.random.default_rng(5)
+    x = rng.random(300) < 0.9
+    same = np.repeat(x[:, None], 6, axis=1)
+    c = coverage_fraction(same, method="trial-clustered")
+    assert (c.n_inside, c.n_total) == (6 * x.sum(), 1800)
+    lo, hi = _wilson(x.mean(), 299, 0.95)
+    assert (c.ci_low, c.ci_high) == pytest.approx((lo, hi), rel=1e-12)
+    assert c.ci_high - c.ci_low > 2 * (coverage_fraction(same).ci_high
+                                       - coverage_fraction(same).ci_low)
+    # independent events within trials: about as wide as plain Wilson over all events
+    ind = rng.random((300, 6)) < 0.9
+    a, b = coverage_fraction(ind, method="trial-clustered"), coverage_fraction(ind)
+    assert (a.ci_high - a.ci_low) == pytest.approx(b.ci_high - b.ci_low, rel=0.15)
+    # invalid events are not counted
+    v = np.ones_like(same)
+    v[:, 3:] = False
+    assert coverage_fraction(same, valid=v, method="trial-clustered").n_total == 900
+    with pytest.raises(ValueError, match="at least 2 clusters"):
+        coverage_fraction(same[:1], method="trial-clustered")

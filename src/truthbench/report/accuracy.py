@@ -268,9 +268,11 @@ def _uncertainty_section(results: dict, utab, out: Path) -> list[str]:
               f"; a normal population predicts {cov.in_sample_expected:.4f} for identified "
               f"values, since a test that builds the bound is inside it almost by "
               f"construction")
+    ci = (f" (95 % interval {c.ci_low:.4f}-{c.ci_high:.4f}, clustered by trial)"
+          if cov.n_trials > 1 else "")
     lines += ["", f"In-sample coverage over {cov.n_trials} trial(s): {c.fraction:.4f} of "
-                  f"{c.n_total} true parameters of the building tests inside their bound "
-                  f"(95 % interval {c.ci_low:.4f}-{c.ci_high:.4f}){expect}.", ""]
+                  f"{c.n_total} true parameters of the building tests inside their bound"
+                  f"{ci}{expect}.", ""]
     if cov.holdout is not None:
         h = cov.holdout
         lines += [f"**Held-out coverage** (the bound's calibration): {h.fraction:.4f} of "
@@ -279,8 +281,9 @@ def _uncertainty_section(results: dict, utab, out: Path) -> list[str]:
                   f"its variance estimated from {cov.n_build} tests predicts "
                   f"{cov.holdout_expected:.4f} (Student-t; "
                   f"{'inside' if h.agrees_with(cov.holdout_expected) else 'OUTSIDE'} the "
-                  f"interval). The parameters of one trial move together, so the pooled "
-                  f"interval is optimistic; per parameter:", ""]
+                  f"interval). The parameters of one trial move together, so the "
+                  f"interval is clustered by trial; per parameter (Wilson intervals, trials "
+                  f"independent):", ""]
         lines.append(_md_table(cov.per_parameter))
         lines += ["A shortfall means the truth varies in ways the tests do not sample, or "
                   "the identification is biased (the bound is built from identified values, "

@@ -11,8 +11,9 @@ numerics) and counts the true per-test modal parameters inside each trial's boun
   Student-t coverage ``P(|t_{T-1}| < k / sqrt(1 + 1/T))`` for ``T`` building tests.
 
 Counted events are independent across trials for one parameter; the parameters of one
-trial are not (one material draw moves every frequency), so per-parameter intervals
-are the honest ones and the pooled interval is optimistic.
+trial are not (one material draw moves every frequency), so pooled fractions carry
+trial-clustered intervals (``coverage_fraction(method="trial-clustered")``) and
+per-parameter fractions Wilson intervals.
 """
 
 from __future__ import annotations
@@ -39,10 +40,11 @@ class CoverageSummary:
     n_trials : int
         Trials with an uncertainty stage and the first one's test split.
     in_sample : Coverage
+        Trial-clustered interval.
     in_sample_expected : float or None
         Normal-theory in-sample value (None for fewer than 3 building tests).
     holdout : Coverage or None
-        Held-out truths inside (None without held-out tests).
+        Held-out truths inside, trial-clustered interval (None without held-out tests).
     holdout_expected : float
         Student-t new-draw expectation for ``n_build`` tests.
     per_parameter : pandas.DataFrame
@@ -125,19 +127,20 @@ def coverage_summary(results: dict, k_sigma: float | None = None,
     inside = np.abs(truth - mean_model[:, None, :]) <= k_sigma * std[:, None, :]
     build = ~hold
     n_build = int(build.sum())
-    in_sample = coverage_fraction(inside[:, build][finite[:, build]], confidence=confidence)
+    clustered = dict(confidence=confidence,  # one trial: no clusters to compare
+                     method="trial-clustered" if tests.shape[0] >= 2 else "wilson")
+    in_sample = coverage_fraction(inside[:, build], valid=finite[:, build], **clustered)
     in_expected = (expected_coverage(k_sigma, n_build, in_sample=True) if n_build >= 3
                    else None)
     held = calib = None
     rows_from = build
     if hold.any():
         rows_from = hold
-        held = coverage_fraction(inside[:, hold][finite[:, hold]], confidence=confidence)
+        held = coverage_fraction(inside[:, hold], valid=finite[:, hold], **clustered)
         ok = np.all(finite[:, hold], axis=(1, 2)) & np.all(np.isfinite(tests[:, build]),
                                                              axis=(1, 2))
         if ok.sum() >= 2:
-            calib = calibration_curve(tests[ok][:, build], truth[ok][:, hold],
-                                      confidence=confidence)
+            calib = calibration_curve(tests[ok][:, build], truth[ok][:, hold], **clustered)
     rows = []
     for i, name in enumerate(names):
         sel = inside[:, rows_from, i][finite[:, rows_from, i]]

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-CI_METHODS = ("wilson", "clopper-pearson")
+CI_METHODS = ("wilson", "clopper-pearson", "trial-clustered")
 
 
 def _readonly(a, dtype=float) -> np.ndarray:
@@ -68,8 +68,12 @@ def wilson_interval(n_inside, n_total, confidence: float = 0.95) -> tuple[float,
     (low, high) : tuple of float
     """
     k, n = _check_counts(n_inside, n_total, confidence)
+    return _wilson(k / n, n, confidence)
+
+
+def _wilson(ph: float, n: float, confidence: float) -> tuple[float, float]:
+    """Wilson interval of a proportion ``ph`` from ``n`` (possibly effective) events."""
     z = stats.norm.ppf(0.5 + confidence / 2.0)
-    ph = k / n
     den = 1.0 + z**2 / n
     centre = (ph + z**2 / (2 * n)) / den
     half = z * np.sqrt(ph * (1 - ph) / n + z**2 / (4 * n**2)) / den
@@ -166,15 +170,27 @@ class Coverage:
         return bool(self.ci_low <= p <= self.ci_high)
 
 
-def coverage_fraction(inside, *, confidence: float = 0.95, method: str = "wilson") -> Coverage:
+def coverage_fraction(inside, *, confidence: float = 0.95, method: str = "wilson",
+                      valid=None) -> Coverage:
     """Fraction of ``True`` entries of ``inside`` and its confidence interval.
 
     Parameters
     ----------
     inside : array_like of bool, any shape
-        One entry per independent event (e.g. trial x parameter).
+        One entry per event. For ``"wilson"`` and ``"clopper-pearson"`` the events must
+        be independent; for ``"trial-clustered"`` axis 0 indexes independent clusters
+        (Monte Carlo trials) and the events inside one cluster may be dependent (the
+        parameters of one trial move together).
     confidence : float
-    method : {"wilson", "clopper-pearson"}
+    method : {"wilson", "clopper-pearson", "trial-clustered"}
+        ``"trial-clustered"``: the ratio estimator ``sum k_i / sum n_i`` over clusters,
+        its cluster-sample variance ``sum (k_i - p n_i)^2 / (N (N - 1) nbar^2)``, and a
+        Wilson interval at the effective sample size ``p (1 - p) / var`` (at most the
+        number of events; the number of clusters when ``p`` is 0 or 1). With one
+        event per cluster it is the Wilson interval of ``N - 1`` events; with ``m``
+        identical events per cluster, that of ``N - 1`` events too (not ``N m``).
+    valid : array_like of bool, same shape as ``inside``, optional
+        Events to count (default all), e.g. the finite truths.
 
     Returns
     -------
@@ -186,9 +202,25 @@ def coverage_fraction(inside, *, confidence: float = 0.95, method: str = "wilson
     b = np.asarray(inside)
     if b.dtype != bool:
         raise ValueError(f"The 'inside' parameter must be a boolean array; got dtype {b.dtype}.")
-    n, k = int(b.size), int(b.sum())
-    f = wilson_interval if method == "wilson" else clopper_pearson_interval
-    lo, hi = f(k, n, confidence)
+    v = np.ones(b.shape, bool) if valid is None else np.asarray(valid, dtype=bool)
+    if v.shape != b.shape:
+        raise ValueError(f"The 'valid' parameter must have the shape of 'inside' {b.shape}; "
+                         f"got {v.shape}.")
+    n, k = int(v.sum()), int((b & v).sum())
+    if method == "trial-clustered":
+        _check_counts(k, n, confidence)
+        if b.ndim < 1 or b.shape[0] < 2:
+            raise ValueError(f"The 'trial-clustered' method needs at least 2 clusters on "
+                             f"axis 0; got shape {b.shape}.")
+        ki = (b & v).reshape(b.shape[0], -1).sum(axis=1).astype(float)
+        ni = v.reshape(b.shape[0], -1).sum(axis=1).astype(float)
+        N, p = b.shape[0], k / n
+        var = np.sum((ki - p * ni) ** 2) / (N * (N - 1) * (n / N) ** 2)
+        n_eff = min(float(n), p * (1 - p) / var) if var > 0 else float(N)
+        lo, hi = _wilson(p, n_eff, confidence)
+    else:
+        f = wilson_interval if method == "wilson" else clopper_pearson_interval
+        lo, hi = f(k, n, confidence)
     return Coverage(k, n, k / n, lo, hi, float(confidence), method)
 
 
