@@ -114,3 +114,14 @@ def test_report_html_is_self_contained(tmp_path):
     assert "<h1>T</h1>" in page and "<code>x</code>" in page
     assert "<td>1</td><td>2</td>" in page and "<li>item</li>" in page
     assert "data:image/png;base64," in page and "f.png" not in page.split("base64,")[1]
+
+
+def test_place_sensors_scores_layouts(tmp_path, capsys):
+    camp = _small_campaign(tmp_path)
+    assert main(["place-sensors", str(camp), "--count", "3", "--score", "--trials", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "Monte Carlo score: 1 trial(s) per layout" in out
+    rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["campaign"],
+                                                                              ["proposed"])]
+    assert [r[0] for r in rows] == ["campaign", "proposed"]
+    assert "E_pa RMS error [%]" in out
