@@ -97,3 +97,29 @@ def test_methods_side_by_side_and_uncertainty_stage(small_dict, tmp_path):
     assert len(table) == len(tr.uncertainty.names)
     assert cov.in_sample.n_total == tr.uncertainty.inside.size and cov.holdout is None
     assert tr.uncertainty.theta_tests.shape[0] == 3
+
+
+def test_one_failed_trial_does_not_lose_the_others(small_dict, tmp_path, monkeypatch):
+    """A trial whose simulation raises is recorded as failed; the other trials finish,
+    and all three are written."""
+    import truthbench.campaign.runner as runner
+
+    calls = {"n": 0}
+    real = runner.simulate_test
+
+    def flaky(spec, j, setup, rng):
+        calls["n"] += 1
+        if calls["n"] == 3:  # trial 1, test 0 (trials run in order with one worker)
+            raise RuntimeError("shaker amplifier tripped")
+        return real(spec, j, setup, rng)
+
+    monkeypatch.setattr(runner, "simulate_test", flaky)
+    small_dict["update"]["method"] = "none"
+    result = run_campaign(parse_campaign(small_dict), trials=3)
+    errors = [t.error for t in result.trials]
+    assert errors[0] is None and errors[2] is None
+    assert "RuntimeError: shaker amplifier tripped" in errors[1]
+    assert len(result.trials[0].tests) == len(result.trials[2].tests) == 2
+    data = read_results(write_results(result, tmp_path / "r.h5"))
+    status = [data["trials"][k]["attrs"]["status"] for k in ("0000", "0001", "0002")]
+    assert status == ["ok", "failed", "ok"]
