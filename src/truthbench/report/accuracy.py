@@ -252,6 +252,23 @@ def _md_table(df) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _frf_band_section(results: dict, out: Path) -> list[str]:
+    from truthbench.report.frf_band import frf_band, plot_frf_band
+
+    fb = frf_band(results)
+    if fb is None:
+        return []
+    lines = ["## FRF-domain uncertainty model", "",
+             f"Mean FRF and {fb.band.k_sigma:g}-sigma band (covariance of real and imaginary "
+             f"parts, line by line) over the first trial's tests {', '.join(fb.tests)}, "
+             f"which share input, outputs and lines."]
+    for which, frac in fb.inside.items():
+        lines.append(f"The {which} model lies inside the band at {100 * frac:.1f} % of the "
+                     f"lines and pairs.")
+    png = plot_frf_band(fb, out / "frf_band.png")
+    return lines + ["", f"![FRF band]({png.name})", ""]
+
+
 def _uncertainty_section(results: dict, utab, out: Path) -> list[str]:
     from truthbench.report.coverage import coverage_summary, plot_calibration_figure
 
@@ -375,6 +392,7 @@ def write_report(results: dict, out_dir: str | Path) -> Path:
     utab = uncertainty_table(results)
     if not utab.empty:
         lines += _uncertainty_section(results, utab, out)
+    lines += _frf_band_section(results, out)
     lines += ["## FRF error over the update band", ""]
     lines.append(_md_table(frf_error_table(results)))
     if failed:
