@@ -6,7 +6,8 @@ frequency response matrix:
 * :mod:`~truthbench.measure.windows` -- data windows by name (periodic scipy windows and
   the impact-test force and exponential windows);
 * :mod:`~truthbench.measure.spectra` -- the one spectral engine: segmenting, windowing,
-  a single batched FFT, averaged one-sided density matrices Gxx, Gyx, Gyy;
+  blockwise FFTs with the products summed while in cache, averaged one-sided density
+  matrices Gxx, Gyx, Gyy;
 * :mod:`~truthbench.measure.frf` -- the estimators H1, H2, Hv (a registry by name),
   ordinary and multiple coherence, and the :class:`FRFEstimate` result.
 

@@ -1,6 +1,6 @@
 """The spectral engine: segmenting, windowing, FFT, and averaged spectral matrices.
 
-One private engine (:func:`_segment_transforms`, :func:`_average_products`) serves every
+One private engine (:func:`_segment_sums`, :func:`_assemble`) serves every
 estimator of :mod:`truthbench.measure.frf`, in the manner of ``scipy.signal._spectral_py``.
 The public entry points are :func:`spectral_matrices` (validated inputs in, a frozen
 :class:`SpectralMatrices` out), :func:`plan_segments` (how a record is cut into
@@ -21,16 +21,25 @@ Conventions
   ``Gyx[:, o, i] == scipy.signal.csd(x[i], y[o])[1]``.
 * Frequencies ``freq_hz = numpy.fft.rfftfreq(nperseg, 1 / fs_hz)``.
 
-Performance: all channels and all segments are windowed into one buffer and transformed
-by a single batched ``scipy.fft.rfft``; the products are averaged with ``numpy.einsum``.
-The FFT is fastest for 5-smooth segment lengths (``2**a 3**b 5**c``); see
+Performance: the segments are windowed, transformed (``scipy.fft.rfft``) and their
+products summed block by block, so that no array of all the segment DFTs is ever formed.
+On one thread each channel's block (about 1 MiB of samples) is transformed on its own
+and its products are summed at once, while its DFTs are in cache; with several FFT
+``workers`` the blocks of all channels go to one batched rfft.  Only the products the
+estimators need are formed: the auto-spectra of every channel, the inputs against the
+later inputs and the outputs, and the outputs against each other only for
+``output_cross``.  The sums run in a numba-compiled loop when numba (optional) imports
+and the spectra are large, else in numpy; both give the same sums to rounding.  The FFT
+is fastest for 5-smooth segment lengths (``2**a 3**b 5**c``); see
 :func:`fft_friendly_length` and ``nperseg="fast"``.  An explicit integer ``nperseg`` is
 always used as given.
 """
 
 from __future__ import annotations
 
+import functools
 import operator
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -409,6 +418,18 @@ def _as_detrend(detrend: Any) -> str:
 
 # --------------------------------------------------------------------------- engine
 
+#: Bytes of windowed samples per block: whole segments, as many as fit (at least one).
+#: Single-threaded, the block of one channel is transformed and its products are
+#: accumulated at once, while its DFTs are still in cache (1 MiB: about an L2 cache);
+#: with several FFT workers, the blocks of all channels go to one batched rfft.
+_BLOCK_BYTES = 1 << 20
+
+#: Size of the spectra (channels x segments x lines, complex values) from which the
+#: compiled product kernel is used if numba imports.  Below it the numpy products cost
+#: less than importing numba and loading its cached kernel (about 0.5 s, once per
+#: process).
+_NUMBA_MIN_VALUES = 1 << 20
+
 
 def _segment_views(a: np.ndarray, plan: SegmentPlan) -> np.ndarray:
     """Read-only view ``(n_ch, n_averages, nperseg)`` of the segments of `a`."""
@@ -416,13 +437,140 @@ def _segment_views(a: np.ndarray, plan: SegmentPlan) -> np.ndarray:
     return windows[:, :: plan.step]
 
 
-def _segment_transforms(
+def _cross_row(b: int, a: int, n_ch: int) -> int:
+    """Row of ``sum_s Z_a conj(Z_b)`` (``b < a``) in the cross sums.
+
+    Each paired channel ``b`` (see :func:`_segment_sums`) pairs with all later channels
+    ``a = b + 1 .. n_ch - 1``; the rows are ordered by ``b``, then ``a``.
+    """
+    return b * (n_ch - 1) - b * (b - 1) // 2 + (a - b - 1)
+
+
+def _accumulate_loops(
+    zc: np.ndarray,
+    partners: np.ndarray,
+    c: int,
+    n_paired: int,
+    auto: np.ndarray,
+    cross: np.ndarray,
+) -> None:  # pragma: no cover - compiled by numba, exercised through _compiled_accumulate
+    """Add the products of channel `c` in a block of segments to the sums.
+
+    Written in loops for numba; one pass over the lines for the auto product and the
+    product with channel 0, and one for each further partner.
+
+    Parameters
+    ----------
+    zc : numpy.ndarray
+        DFTs of channel `c`, ``(n_seg, n_freq)``, complex, C-contiguous.
+    partners : numpy.ndarray
+        ``(n, n_seg, n_freq)``, complex, C-contiguous: the DFTs of the same segments of
+        the channels ``b = 0 .. min(c, n_paired) - 1``, which pair with `c`.
+    c : int
+        Channel index.
+    n_paired : int
+        Channels ``0 .. n_paired - 1`` pair with every later channel.
+    auto : numpy.ndarray
+        ``(n_ch, n_freq)``, float: ``auto[c] += sum_s |zc[s]|**2``, in place.
+    cross : numpy.ndarray
+        ``(n_rows, n_freq)``, complex, in place: ``cross[_cross_row(b, c, n_ch)] +=
+        sum_s zc[s] conj(partners[b, s])``.
+    """
+    n_seg, n_freq = zc.shape
+    n_ch = auto.shape[0]
+    sums = auto[c]
+    for s in range(n_seg):
+        z = zc[s]
+        if c == 0 or n_paired == 0:
+            for f in range(n_freq):
+                v = z[f]
+                sums[f] += v.real * v.real + v.imag * v.imag
+            continue
+        z0 = partners[0, s]
+        pair = cross[c - 1]  # _cross_row(0, c, n_ch)
+        for f in range(n_freq):
+            v = z[f]
+            sums[f] += v.real * v.real + v.imag * v.imag
+            pair[f] += v * z0[f].conjugate()
+        for b in range(1, min(c, n_paired)):
+            zb = partners[b, s]
+            pair = cross[b * (n_ch - 1) - b * (b - 1) // 2 + (c - b - 1)]
+            for f in range(n_freq):
+                pair[f] += z[f] * zb[f].conjugate()
+
+
+def _accumulate_numpy(
+    zc: np.ndarray,
+    partners: np.ndarray,
+    c: int,
+    n_paired: int,
+    auto: np.ndarray,
+    cross: np.ndarray,
+) -> None:
+    """:func:`_accumulate_loops` in numpy: the same sums, equal to rounding."""
+    n_ch = auto.shape[0]
+    if len(zc) == 1:  # one segment (long segments): in place, the loops' association
+        z = zc[0]
+        squares = z.real * z.real
+        squares += z.imag * z.imag
+        auto[c] += squares
+        for b in range(min(c, n_paired)):
+            products = np.conjugate(partners[b, 0])
+            products *= z
+            cross[_cross_row(b, c, n_ch)] += products
+        return
+    flat = zc.view(np.float64)  # (n_seg, 2 * n_freq): real, imaginary interleaved
+    squares = np.einsum("sk,sk->k", flat, flat)
+    auto[c] += squares[0::2] + squares[1::2]
+    for b in range(min(c, n_paired)):
+        cross[_cross_row(b, c, n_ch)] += (zc * partners[b].conj()).sum(axis=0)
+
+
+@functools.cache
+def _compiled_accumulate() -> Callable[..., None] | None:
+    """:func:`_accumulate_loops` compiled by numba (cached on disk); None without numba.
+
+    None also when numba's JIT is disabled (``NUMBA_DISABLE_JIT``): the loops would then
+    run in Python, far slower than numpy.
+    """
+    try:
+        import numba
+    except ImportError:
+        return None
+    if numba.config.DISABLE_JIT:
+        return None
+    signature = (
+        "void(complex128[:, ::1], complex128[:, :, ::1], intp, intp, float64[:, ::1], "
+        "complex128[:, ::1])"
+    )
+    return numba.njit(signature, cache=True, nogil=True)(_accumulate_loops)
+
+
+def _window_into(segments: np.ndarray, window: np.ndarray, detrend: str, out: np.ndarray) -> None:
+    """``out = (segments - mean) * window`` (the mean only for ``"constant"``), in place."""
+    if detrend == "constant":
+        np.subtract(segments, segments.mean(axis=-1, keepdims=True), out=out)
+        out *= window
+    else:
+        np.multiply(segments, window, out=out)
+
+
+def _segment_sums(
     channels: list[tuple[np.ndarray, np.ndarray]],
     plan: SegmentPlan,
     detrend: str,
     workers: int | None,
-) -> np.ndarray:
-    """DFTs of the windowed segments of every channel, in one batched rfft.
+    n_paired: int,
+    accumulate: Callable[..., None] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Sums over the segments of the auto products and of the cross products needed.
+
+    The segments are windowed, transformed (:func:`scipy.fft.rfft`) and their products
+    accumulated block by block (:data:`_BLOCK_BYTES`), so that no array of all the
+    segment DFTs is formed.  On one thread each channel's block is transformed on its
+    own and its products are accumulated while its DFTs are in cache; with several
+    `workers`, the blocks of all channels are transformed in one call, which the
+    workers share.
 
     Parameters
     ----------
@@ -432,42 +580,60 @@ def _segment_transforms(
     plan : SegmentPlan
     detrend : {"none", "constant"}
     workers : int or None
-        Passed to :func:`scipy.fft.rfft`.
+        FFT threads, as for :func:`scipy.fft.rfft`.
+    n_paired : int
+        Channels ``0 .. n_paired - 1`` pair with every later channel: ``n_in`` (Gxx
+        and Gyx), or ``n_ch - 1`` to add the output cross-spectra.
+    accumulate : callable, optional
+        :func:`_accumulate_numpy` or the compiled :func:`_accumulate_loops`.  None: the
+        compiled one for spectra of at least :data:`_NUMBA_MIN_VALUES` values if numba
+        imports, else numpy.
 
     Returns
     -------
-    numpy.ndarray
-        Shape ``(n_ch, n_averages, nperseg // 2 + 1)``, complex.
+    auto : numpy.ndarray
+        ``(n_ch, n_freq)``, float: ``sum_s |Z_c|**2``.
+    cross : numpy.ndarray
+        ``(n_rows, n_freq)``, complex: ``sum_s Z_a conj(Z_b)`` in row
+        ``_cross_row(b, a, n_ch)``, for ``b < n_paired``, ``b < a``.
     """
     n_ch = sum(data.shape[0] for data, _ in channels)
-    buffer = np.empty((n_ch, plan.n_averages, plan.nperseg))
-    start = 0
-    for data, window in channels:
-        stop = start + data.shape[0]
-        segments = _segment_views(data, plan)
-        block = buffer[start:stop]
-        if detrend == "constant":
-            np.subtract(segments, segments.mean(axis=-1, keepdims=True), out=block)
-            block *= window
+    n_seg, nperseg = plan.n_averages, plan.nperseg
+    n_freq = nperseg // 2 + 1
+    if accumulate is None:
+        compiled = _compiled_accumulate() if n_ch * n_seg * n_freq >= _NUMBA_MIN_VALUES else None
+        accumulate = _accumulate_numpy if compiled is None else compiled
+    threads = scipy.fft.get_workers() if workers is None else workers
+    rows = [
+        (segments, window) for data, window in channels for segments in _segment_views(data, plan)
+    ]
+    by_channel = threads == 1
+    per_block = max(1, min(n_seg, _BLOCK_BYTES // (8 * nperseg * (1 if by_channel else n_ch))))
+    samples = np.empty((1 if by_channel else n_ch) * per_block * nperseg)
+    kept = np.empty((n_paired, per_block, n_freq), dtype=complex) if by_channel else None
+    auto = np.zeros((n_ch, n_freq))
+    n_rows = _cross_row(n_paired, n_paired + 1, n_ch)  # the rows of the b < n_paired
+    cross = np.zeros((n_rows, n_freq), dtype=complex)
+    for first in range(0, n_seg, per_block):
+        k = min(per_block, n_seg - first)
+        if by_channel:
+            block = samples[: k * nperseg].reshape(k, nperseg)
+            # the last block may be shorter: a C-contiguous array of its own
+            partners = kept if k == per_block else np.empty((n_paired, k, n_freq), complex)
+            for c, (segments, window) in enumerate(rows):
+                _window_into(segments[first : first + k], window, detrend, block)
+                zc = scipy.fft.rfft(block, axis=-1, overwrite_x=True, workers=workers)
+                if c < n_paired:
+                    partners[c] = zc
+                accumulate(zc, partners, c, n_paired, auto, cross)
         else:
-            np.multiply(segments, window, out=block)
-        start = stop
-    return scipy.fft.rfft(buffer, axis=-1, overwrite_x=True, workers=workers)
-
-
-def _auto_products(z: np.ndarray) -> np.ndarray:
-    """``sum_s |z[c, s, f]|**2`` as a real ``(n_freq, n_ch)`` array."""
-    flat = z.view(np.float64)  # (..., 2 * n_freq): real and imaginary parts interleaved
-    sums = np.einsum("csf,csf->cf", flat, flat)
-    return (sums[:, 0::2] + sums[:, 1::2]).T
-
-
-def _cross_products(a: np.ndarray, b: np.ndarray, b_conjugated: bool = False) -> np.ndarray:
-    """``sum_s a[p, s, f] conj(b[q, s, f])`` as a complex ``(n_freq, n_a, n_b)`` array.
-
-    With `b_conjugated`, `b` already holds ``conj(b)`` (saves a copy).
-    """
-    return np.einsum("psf,qsf->fpq", a, b if b_conjugated else b.conj())
+            block = samples[: n_ch * k * nperseg].reshape(n_ch, k, nperseg)
+            for c, (segments, window) in enumerate(rows):
+                _window_into(segments[first : first + k], window, detrend, block[c])
+            z = scipy.fft.rfft(block, axis=-1, overwrite_x=True, workers=workers)
+            for c in range(n_ch):
+                accumulate(z[c], z, c, n_paired, auto, cross)
+    return auto, cross
 
 
 def _onesided_density_scale(
@@ -481,32 +647,84 @@ def _onesided_density_scale(
     return scale
 
 
-def _average_products(
-    zx: np.ndarray, zy: np.ndarray, scale: np.ndarray, output_cross: bool
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """Scaled spectral matrices from segment DFTs ``zx (n_in, S, F)``, ``zy (n_out, S, F)``.
+#: Frequency lines per chunk when the scaled matrices are assembled.
+_ASSEMBLE_LINES = 4096
 
-    `zx` is the engine's own scratch array and is conjugated in place here.
+
+def _hermitian_pair(g: np.ndarray, a: int, b: int, values: np.ndarray) -> None:
+    """``g[:, a, b] = values``, ``g[:, b, a] = conj(values)``, in place."""
+    g[:, a, b] = values
+    np.conjugate(values, out=g[:, b, a])
+
+
+def _assemble(
+    auto: np.ndarray, cross: np.ndarray, n_in: int, output_cross: bool, scale: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Scaled spectral matrices from the sums of :func:`_segment_sums`.
+
+    Parameters
+    ----------
+    auto, cross : numpy.ndarray
+        From :func:`_segment_sums`, with ``n_paired = n_ch - 1`` if `output_cross`, else
+        ``n_in``.
+    n_in : int
+        Number of inputs (the first channels).
+    output_cross : bool
+        Whether to build ``Gyy_full``.
+    scale : numpy.ndarray
+        ``(n_freq,)`` one-sided density scale.
+
+    Returns
+    -------
+    tuple
+        ``Gxx (n_freq, n_in, n_in)``, ``Gyx (n_freq, n_out, n_in)``,
+        ``Gyy (n_freq, n_out)`` and ``Gyy_full (n_freq, n_out, n_out)`` or None; Gxx and
+        Gyy_full exactly Hermitian with real diagonals.
     """
-    n_in = zx.shape[0]
-    if n_in == 1:
-        gxx = _auto_products(zx).astype(complex)[:, :, np.newaxis]
-    else:
-        gxx = _cross_products(zx, zx)
-        # exact Hermitian symmetry and real diagonal
-        gxx = 0.5 * (gxx + gxx.conj().transpose(0, 2, 1))
-    np.negative(zx.imag, out=zx.imag)  # zx <- conj(zx), in the engine's own buffer
-    gyx = _cross_products(zy, zx, b_conjugated=True)
-    gyy = _auto_products(zy)
-    gyy_full = None
-    if output_cross:
-        gyy_full = _cross_products(zy, zy)
-        gyy_full = 0.5 * (gyy_full + gyy_full.conj().transpose(0, 2, 1))
-        gyy_full *= scale[:, np.newaxis, np.newaxis]
-    gxx *= scale[:, np.newaxis, np.newaxis]
-    gyx *= scale[:, np.newaxis, np.newaxis]
-    gyy *= scale[:, np.newaxis]
+    n_ch, n_freq = auto.shape
+    n_out = n_ch - n_in
+    gxx = np.zeros((n_freq, n_in, n_in), dtype=complex)
+    gyx = np.empty((n_freq, n_out, n_in), dtype=complex)
+    gyy = np.empty((n_freq, n_out))
+    gyy_full = np.zeros((n_freq, n_out, n_out), dtype=complex) if output_cross else None
+    # row by row (contiguous loads, strided stores), in chunks of lines that stay in cache
+    for start in range(0, n_freq, _ASSEMBLE_LINES):
+        f = slice(start, start + _ASSEMBLE_LINES)
+        sc = scale[f]
+        for i in range(n_in):
+            np.multiply(auto[i, f], sc, out=gxx[f, i, i].real)
+            for j in range(i + 1, n_in):
+                _hermitian_pair(gxx[f], j, i, cross[_cross_row(i, j, n_ch), f] * sc)
+            for o in range(n_out):
+                np.multiply(cross[_cross_row(i, n_in + o, n_ch), f], sc, out=gyx[f, o, i])
+        for o in range(n_out):
+            np.multiply(auto[n_in + o, f], sc, out=gyy[f, o])
+        if gyy_full is not None:
+            for p in range(n_out):
+                gyy_full[f, p, p].real[...] = gyy[f, p]
+                for o in range(p + 1, n_out):
+                    row = _cross_row(n_in + p, n_in + o, n_ch)
+                    _hermitian_pair(gyy_full[f], o, p, cross[row, f] * sc)
     return gxx, gyx, gyy, gyy_full
+
+
+#: Longest named window that is cached (2 MiB of samples; at most 8 are kept).
+_CACHED_WINDOW_SAMPLES = 1 << 18
+
+
+@functools.lru_cache(maxsize=8)
+def _named_window(name: str, n: int) -> tuple[np.ndarray, str]:
+    """:func:`window_from_spec` of a window name, computed once (read-only samples)."""
+    samples, description = window_from_spec(name, n)
+    samples.flags.writeable = False
+    return samples, description
+
+
+def _window(spec: WindowSpec, n: int) -> tuple[np.ndarray, str]:
+    """:func:`window_from_spec`, named windows cached (they take ms for long segments)."""
+    if isinstance(spec, str) and n <= _CACHED_WINDOW_SAMPLES:
+        return _named_window(spec, n)
+    return window_from_spec(spec, n)
 
 
 def _prepare(
@@ -550,11 +768,11 @@ def _prepare(
             "whose length fixes nperseg; pass a window name or an integer nperseg."
         )
     plan = plan_segments(n_samples, nperseg=nperseg, n_averages=n_averages, noverlap=noverlap)
-    w_out, description = window_from_spec(window, plan.nperseg)
+    w_out, description = _window(window, plan.nperseg)
     if input_window is None:
         w_in = w_out
     else:
-        w_in, in_description = window_from_spec(input_window, plan.nperseg)
+        w_in, in_description = _window(input_window, plan.nperseg)
         description = f"{description} (input: {in_description})"
     return xa, ya, fs, plan, w_in, w_out, description, detrend_mode
 
@@ -574,10 +792,13 @@ def _compute(
 ) -> SpectralMatrices:
     """The engine proper, on validated inputs."""
     n_in = xa.shape[0]
-    z = _segment_transforms([(xa, w_in), (ya, w_out)], plan, detrend_mode, workers)
+    n_paired = n_in + ya.shape[0] - 1 if output_cross else n_in
     scale = _onesided_density_scale(float(np.dot(w_out, w_out)), fs, plan.nperseg, plan.n_averages)
     with np.errstate(invalid="ignore", over="ignore"):  # non-finite data: reported below
-        products = _average_products(z[:n_in], z[n_in:], scale, output_cross)
+        auto, cross = _segment_sums(
+            [(xa, w_in), (ya, w_out)], plan, detrend_mode, workers, n_paired
+        )
+        products = _assemble(auto, cross, n_in, output_cross, scale)
     _check_finite(xa, ya, plan, products)
     gxx, gyx, gyy, gyy_full = products
     freq_hz = np.fft.rfftfreq(plan.nperseg, 1.0 / fs)
