@@ -335,27 +335,8 @@ def modal_table(model: StructuralModel, modes: Modes) -> list[dict]:
     (axial, bending y, bending z, torsion) and counts the sign changes of the dominant
     translation along the structure (nodes).
     """
-    Xi = modal_damping_matrix(model, modes)
     m = modes.n_modes
-    omega = modes.omega_rad_s
-    if np.allclose(Xi, np.diag(np.diag(Xi))):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            zeta = np.where(omega > 0, np.diag(Xi) / (2 * np.maximum(omega, 1e-300)), np.nan)
-    else:
-        A = np.block([[np.zeros((m, m)), np.eye(m)], [-np.diag(omega**2), -Xi]])
-        lam = sla.eigvals(A)
-        # oscillatory poles (upper half plane) paired to the elastic modes by an
-        # assignment on frequency distance; rigid modes (real poles 0 and -c/J from a
-        # dashpot) get NaN
-        osc = lam[lam.imag > 1e-9 * np.abs(lam).max()]
-        elastic = np.flatnonzero(~modes.rigid)
-        zeta = np.full(m, np.nan)
-        if osc.size and elastic.size:
-            from scipy.optimize import linear_sum_assignment
-
-            cost = np.abs(np.abs(osc)[None, :] - omega[elastic, None]) / omega[elastic, None]
-            rows, cols = linear_sum_assignment(cost)
-            zeta[elastic[rows]] = -osc[cols].real / np.abs(osc[cols])
+    zeta = complex_modes(model, modes).damping_ratio
     dirs = np.array([lab.rsplit(".", 1)[-1] if "." in lab else "" for lab in model.dof_labels])
     Mdiag = model.M.diagonal()
     names = {"x": "axial", "y": "bending y", "z": "bending z", "rx": "torsion"}
@@ -373,3 +354,94 @@ def modal_table(model: StructuralModel, modes: Modes) -> list[dict]:
         rows.append({"mode": i + 1, "freq_hz": float(modes.freq_hz[i]),
                      "damping_ratio": float(zeta[i]), "shape": desc})
     return rows
+
+
+@dataclass(frozen=True)
+class ComplexModes:
+    """Complex modes of the modal first-order form, one entry per real mode.
+
+    Attributes
+    ----------
+    poles : ndarray, complex, shape (m,)
+        Pole ``s_i`` (rad/s, ``Im s_i > 0``) paired to real mode ``i``; NaN for rigid-body
+        modes and modes without an oscillatory pole (overdamped).
+    omega_rad_s : ndarray, shape (m,)
+        Undamped natural frequency of the pole, ``|s_i|``, rad/s (``omega_i`` itself for
+        proportional damping); NaN for rigid-body modes and, with non-proportional
+        damping, for elastic modes left without an oscillatory pole.
+    damping_ratio : ndarray, shape (m,)
+        ``-Re(s_i) / |s_i|`` (``Xi_ii / (2 omega_i)`` for proportional damping): the
+        value :func:`modal_table` reports for mode ``i``; NaN as ``omega_rad_s``.
+    shapes : ndarray, complex, shape (n, m)
+        Physical (displacement) shape ``Phi v_i`` of the pole's eigenvector, scaled so
+        that its modal coordinate on its own real mode is ``v_i[i] = 1`` (it is then the
+        mass-normalised real shape plus the damping-induced coupling; the real shape
+        for proportional damping); NaN as ``omega_rad_s``.
+    """
+
+    poles: np.ndarray
+    omega_rad_s: np.ndarray
+    damping_ratio: np.ndarray
+    shapes: np.ndarray
+
+
+def complex_modes(model: StructuralModel, modes: Modes) -> ComplexModes:
+    """Exact poles, damping ratios and complex shapes of ``model`` in the basis ``modes``.
+
+    The same computation and pairing as the damping column of :func:`modal_table`: when
+    the modal damping matrix ``Xi`` (:func:`modal_damping_matrix`) is diagonal (by
+    ``numpy.allclose``), ``zeta_i = Xi_ii / (2 omega_i)``, ``|s_i| = omega_i`` and the
+    shapes are the real ones; otherwise the eigenvalues of ``[[0, I], [-Omega^2, -Xi]]``
+    with ``Im s > 1e-9 max|s|`` are assigned to the elastic real modes by an assignment on
+    relative frequency distance ``| |s| - omega_i | / omega_i``.
+
+    Parameters
+    ----------
+    model : StructuralModel
+        Supplies ``C`` and ``modal_damping_ratio`` (``B``, ``C_out`` are not used).
+    modes : Modes
+        Real modes of ``(M, K)`` (all of them, or the lowest: the first-order form is
+        then truncated to them, as in :func:`modal_table`).
+
+    Returns
+    -------
+    ComplexModes
+    """
+    Xi = modal_damping_matrix(model, modes)
+    m = modes.n_modes
+    omega = modes.omega_rad_s
+    Phi = modes.shapes
+    elastic = np.flatnonzero(~modes.rigid)
+    poles = np.full(m, np.nan + 1j * np.nan)
+    wn = np.full(m, np.nan)
+    zeta = np.full(m, np.nan)
+    shapes = np.full(Phi.shape, np.nan + 1j * np.nan)
+    if np.allclose(Xi, np.diag(np.diag(Xi))):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(omega > 0, np.diag(Xi) / (2 * np.maximum(omega, 1e-300)), np.nan)
+        zeta[:] = z
+        wn[elastic] = omega[elastic]
+        shapes[:, elastic] = Phi[:, elastic]
+        under = elastic[z[elastic] < 1]
+        poles[under] = omega[under] * (-z[under] + 1j * np.sqrt(1 - z[under] ** 2))
+        return ComplexModes(poles, wn, zeta, shapes)
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-np.diag(omega**2), -Xi]])
+    lam, V = sla.eig(A)
+    osc = np.flatnonzero(lam.imag > 1e-9 * np.abs(lam).max())
+    if osc.size and elastic.size:
+        from scipy.optimize import linear_sum_assignment
+
+        cost = np.abs(np.abs(lam[osc])[None, :] - omega[elastic, None]) / omega[elastic, None]
+        rows, cols = linear_sum_assignment(cost)
+        i, k = elastic[rows], osc[cols]
+        poles[i] = lam[k]
+        wn[i] = np.abs(lam[k])
+        zeta[i] = -lam[k].real / np.abs(lam[k])
+        v = V[:m, k]  # modal displacement coordinates, one column per paired mode
+        cols_ = np.arange(i.size)
+        own = v[i, cols_]
+        # scale by the own coordinate (a mode dominated by others: by its largest one)
+        ref = np.where(np.abs(own) > 1e-8 * np.abs(v).max(axis=0), own,
+                       v[np.argmax(np.abs(v), axis=0), cols_])
+        shapes[:, i] = Phi @ (v / ref)
+    return ComplexModes(poles, wn, zeta, shapes)

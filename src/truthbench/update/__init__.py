@@ -7,7 +7,12 @@ from truthbench.update.finite_difference import (
     finite_difference_update,
     sensitivity_matrix,
 )
-from truthbench.update.macroelements import Macroelement, macroelement_matrices
+from truthbench.update.macroelements import (
+    Macroelement,
+    SystemMatrices,
+    macroelement_matrices,
+    system_matrices,
+)
 from truthbench.update.registry import (
     UPDATERS,
     FiniteDifferenceUpdater,
@@ -21,12 +26,14 @@ from truthbench.update.sensitivity import (
     MeasuredModes,
     ModalPairs,
     SensitivityResult,
+    damping_sensitivities,
     eigen_sensitivities,
     sensitivity_update,
 )
 
 __all__ = ["UPDATERS", "FiniteDifferenceUpdater", "Macroelement", "MeasuredModes",
-           "ModalPairs", "SensitivityResult", "SensitivityUpdater", "UpdateProblem",
-           "UpdateResult", "Updater", "check_overdetermined", "eigen_sensitivities",
-           "finite_difference_update", "get_updater", "macroelement_matrices",
-           "register_updater", "sensitivity_matrix", "sensitivity_update"]
+           "ModalPairs", "SensitivityResult", "SensitivityUpdater", "SystemMatrices",
+           "UpdateProblem", "UpdateResult", "Updater", "check_overdetermined",
+           "damping_sensitivities", "eigen_sensitivities", "finite_difference_update",
+           "get_updater", "macroelement_matrices", "register_updater",
+           "sensitivity_matrix", "sensitivity_update", "system_matrices"]

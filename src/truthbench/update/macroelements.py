@@ -34,6 +34,21 @@ The matrices returned: for a linear parameter the probe secant ``D(s)`` (exact; 
 about ``eps ||K|| / (s ||K_k||)``); for a nonlinear one the forward difference at
 ``relative_step`` (derivative at ``theta`` to ``O(relative_step)``, rounding about
 ``eps ||K|| / (relative_step ||K_k||)``).
+
+Damping
+-------
+A builder may also return the damping (see :data:`BuildSystem`): ``(M, C, K)`` with ``C``
+the physical viscous damping matrix (dashpots), or a
+:class:`~truthbench.model.StructuralModel`, whose damping is that ``C`` plus a modal
+damping ratio ``zeta_m`` on every elastic mode (``modal_damping_ratio``; the model's
+damping is ``Xi = Phi^T C Phi + diag(2 zeta_m omega)``,
+:func:`~truthbench.model.modal_damping_matrix`). Every macroelement then also carries
+``C_k = theta_k dC/dtheta_k`` (N s/m per unit relative change) and
+``zeta_k = theta_k dzeta_m/dtheta_k`` (dimensionless per unit relative change), taken and
+checked for linearity exactly like ``M_k`` and ``K_k``. A damping parameter (hub dashpot,
+suspension dashpot) has ``M_k = K_k = 0`` and ``C_k != 0``; ``modal_damping_ratio`` has
+``C_k = 0`` and ``zeta_k = zeta_m`` (it is not a physical C matrix, so it is its own
+kind, see :attr:`Macroelement.kind`).
 """
 
 from __future__ import annotations
@@ -45,21 +60,114 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-#: ``build_mk(theta) -> (M, K)``: the assembled mass and stiffness matrices (sparse or
-#: dense, shape (n, n), same DOFs for every ``theta``).
+from truthbench.model import StructuralModel
+
 _ROUNDING = 64 * np.finfo(float).eps  # rounding level of a difference, relative
 
+#: ``build_mk(theta) -> (M, K)``: the assembled mass and stiffness matrices (sparse or
+#: dense, shape (n, n), same DOFs for every ``theta``).
 BuildMK = Callable[[Mapping[str, float]], tuple[object, object]]
+
+#: ``build(theta) -> (M, K) | (M, C, K) | StructuralModel``: a :data:`BuildMK`, or a
+#: builder that also gives the damping: the physical viscous damping matrix ``C``
+#: (N s/m, shape (n, n), may be zero) and, for a ``StructuralModel`` (e.g. ``plant.build``),
+#: its ``modal_damping_ratio``. ``(M, C, K)`` means no modal damping.
+BuildSystem = Callable[[Mapping[str, float]], object]
+
+
+@dataclass(frozen=True)
+class SystemMatrices:
+    """What a :data:`BuildSystem` gave, in one form.
+
+    Attributes
+    ----------
+    M, C, K : scipy.sparse.csr_matrix, shape (n, n)
+        Mass (kg), viscous damping (N s/m; zero when not modelled) and stiffness (N/m).
+    modal_damping_ratio : ndarray, shape () or (m,)
+        Modal damping ratio of every elastic mode (or one per mode), dimensionless.
+    damped : bool
+        Whether the builder models damping (returned ``C`` or a model); False for a
+        plain ``(M, K)`` builder.
+    model : StructuralModel or None
+        The model the builder returned, if any.
+    """
+
+    M: sp.csr_matrix
+    C: sp.csr_matrix
+    K: sp.csr_matrix
+    modal_damping_ratio: np.ndarray
+    damped: bool
+    model: StructuralModel | None = None
+
+    @property
+    def n_dofs(self) -> int:
+        return self.M.shape[0]
+
+    def structural_model(self) -> StructuralModel:
+        """The returned model, or a bare one (no inputs, outputs) with ``M``, ``C``,
+        ``K`` and the modal damping ratio."""
+        if self.model is not None:
+            return self.model
+        n = self.n_dofs
+        return StructuralModel(M=self.M, C=self.C, K=self.K, B=np.zeros((n, 0)),
+                               C_out=np.zeros((0, n)), quantities=(),
+                               modal_damping_ratio=self.modal_damping_ratio)
+
+
+def system_matrices(build: BuildSystem, theta: Mapping[str, float]) -> SystemMatrices:
+    """Call ``build(theta)`` and bring its result into one form.
+
+    Parameters
+    ----------
+    build : callable
+        ``build(theta)`` returning ``(M, K)``, ``(M, C, K)`` or a
+        :class:`~truthbench.model.StructuralModel` (see :data:`BuildSystem`).
+    theta : mapping
+        All model parameters.
+
+    Returns
+    -------
+    SystemMatrices
+
+    Raises
+    ------
+    ValueError
+        Any other return value, or matrices that are not square of one shape.
+    """
+    out = build(theta)
+    if isinstance(out, StructuralModel):
+        M, C, K = _csr(out.M), _csr(out.C), _csr(out.K)
+        zeta = np.asarray(out.modal_damping_ratio, dtype=float)
+        model, damped = out, True
+    elif isinstance(out, tuple | list) and len(out) in (2, 3):
+        if len(out) == 2:
+            M, K = _csr(out[0]), _csr(out[1])
+            C, damped = sp.csr_matrix(M.shape), False
+        else:
+            M, C, K = (_csr(a) for a in out)
+            damped = True
+        zeta, model = np.asarray(0.0), None
+    else:
+        what = f"a {len(out)}-tuple" if isinstance(out, tuple | list) else type(out).__name__
+        raise ValueError(f"the model builder must return (M, K), (M, C, K) or a "
+                         f"StructuralModel; got {what}")
+    if M.shape[0] != M.shape[1] or K.shape != M.shape or C.shape != M.shape:
+        raise ValueError(f"the model builder must return square M, C, K of one shape; got "
+                         f"M {M.shape}, C {C.shape}, K {K.shape}")
+    if not np.all(np.isfinite(zeta)) or zeta.ndim > 1:
+        raise ValueError(f"the model's modal_damping_ratio must be a finite scalar or one "
+                         f"value per mode; got {zeta!r}")
+    return SystemMatrices(M, C, K, zeta, damped, model)
 
 
 @dataclass(frozen=True)
 class Macroelement:
-    """The mass and stiffness pattern scaled by one parameter.
+    """The mass, stiffness and damping pattern scaled by one parameter.
 
     Attributes
     ----------
     name : str
-        The parameter (``E_pa@g2``, ``rho_kg_m3``, ``hub_inertia_kg_m2``, ...).
+        The parameter (``E_pa@g2``, ``rho_kg_m3``, ``hub_damping_n_m_s_rad``, ...).
     dM, dK : scipy.sparse.csr_matrix, shape (n, n)
         ``theta_k dM/dtheta_k`` (kg) and ``theta_k dK/dtheta_k`` (N/m): the change of M
         and K per unit *relative* change of the parameter.
@@ -71,6 +179,12 @@ class Macroelement:
         if not checked.
     linear : bool
         ``nonlinearity <= linearity_tol`` (True when not checked).
+    dC : scipy.sparse.csr_matrix, shape (n, n)
+        ``theta_k dC/dtheta_k`` (N s/m): change of the physical damping matrix per unit
+        relative change (zero when not given or when the builder models no damping).
+    dzeta_modal : float or ndarray, shape (m,)
+        ``theta_k dzeta_m/dtheta_k``: change of the modal damping ratio (dimensionless)
+        per unit relative change; equal to ``zeta_m`` itself for ``modal_damping_ratio``.
     """
 
     name: str
@@ -79,6 +193,35 @@ class Macroelement:
     value: float
     nonlinearity: float = float("nan")
     linear: bool = True
+    dC: sp.csr_matrix | None = None
+    dzeta_modal: float | np.ndarray = 0.0
+
+    def __post_init__(self):
+        if self.dC is None:
+            object.__setattr__(self, "dC", sp.csr_matrix(self.dM.shape))
+        z = np.asarray(self.dzeta_modal, dtype=float)
+        if z.ndim > 1 or not np.all(np.isfinite(z)):
+            raise ValueError(f"Macroelement {self.name!r}: 'dzeta_modal' must be a finite "
+                             f"scalar or 1-D array; got {self.dzeta_modal!r}")
+        object.__setattr__(self, "dzeta_modal", float(z) if z.ndim == 0 else z)
+
+    @property
+    def kind(self) -> str:
+        """``"structural"`` (changes M or K; it may change damping as well),
+        ``"damping"`` (only the physical damping matrix C, e.g. a dashpot),
+        ``"modal_damping"`` (only the modal damping ratio) or ``"none"``."""
+        if self.dM.nnz or self.dK.nnz:
+            return "structural"
+        if self.dC.nnz:
+            return "damping"
+        if np.any(np.asarray(self.dzeta_modal) != 0):
+            return "modal_damping"
+        return "none"
+
+    @property
+    def acts_on_damping(self) -> bool:
+        """True if the parameter changes C or the modal damping ratio."""
+        return bool(self.dC.nnz) or bool(np.any(np.asarray(self.dzeta_modal) != 0))
 
 
 def _csr(a) -> sp.csr_matrix:
@@ -86,16 +229,12 @@ def _csr(a) -> sp.csr_matrix:
         np.asarray(a, dtype=float))
 
 
-def _build(build_mk: BuildMK, theta: Mapping[str, float], n: int | None):
-    M, K = build_mk(theta)
-    M, K = _csr(M), _csr(K)
-    if M.shape != K.shape or M.shape[0] != M.shape[1]:
-        raise ValueError(f"build_mk must return square M and K of one shape; got "
-                         f"{M.shape} and {K.shape}")
-    if n is not None and M.shape[0] != n:
-        raise ValueError(f"build_mk returned {M.shape[0]} DOFs at a perturbed parameter; "
-                         f"expected {n} (the same DOFs for every parameter value)")
-    return M, K
+def _build(build: BuildSystem, theta: Mapping[str, float], n: int | None) -> SystemMatrices:
+    sysm = system_matrices(build, theta)
+    if n is not None and sysm.n_dofs != n:
+        raise ValueError(f"the model builder returned {sysm.n_dofs} DOFs at a perturbed "
+                         f"parameter; expected {n} (the same DOFs for every parameter value)")
+    return sysm
 
 
 def _fro(a: sp.csr_matrix) -> float:
@@ -109,7 +248,7 @@ def _clean(a: sp.csr_matrix) -> sp.csr_matrix:
 
 
 def macroelement_matrices(
-    build_mk: BuildMK,
+    build_mk: BuildSystem,
     theta: Mapping[str, float],
     names: Sequence[str],
     *,
@@ -119,12 +258,15 @@ def macroelement_matrices(
     linearity_tol: float = 1e-7,
     warn: bool = True,
 ) -> list[Macroelement]:
-    """Macroelements ``M_k, K_k`` of the parameters ``names`` at ``theta``.
+    """Macroelements ``M_k, K_k`` (and ``C_k``, ``zeta_k``) of the parameters ``names``.
 
     Parameters
     ----------
     build_mk : callable
-        ``build_mk(theta) -> (M, K)``, sparse or dense, shape (n, n), SI units.
+        ``build_mk(theta) -> (M, K)``, sparse or dense, shape (n, n), SI units; or a
+        builder that also returns damping, ``(M, C, K)`` or a
+        :class:`~truthbench.model.StructuralModel` (:data:`BuildSystem`), for which
+        ``dC`` and ``dzeta_modal`` are filled in too.
     theta : mapping
         All model parameters (the linearisation point); ``names`` are perturbed
         relatively, ``theta_k (1 + a)``. Not modified.
@@ -168,50 +310,60 @@ def macroelement_matrices(
     for label, step in (("relative_step", relative_step), ("linearity_step", linearity_step)):
         if not 0 < step <= 0.1:
             raise ValueError(f"{label} must lie in (0, 0.1]; got {step!r}")
-    M0, K0 = _build(build_mk, theta, None)
-    n = M0.shape[0]
-    scale = (_fro(M0), _fro(K0))
+    base = _build(build_mk, theta, None)
+    n = base.n_dofs
+    mats0 = (base.M, base.C, base.K)
+    scale = tuple(_fro(a) for a in mats0)
 
     def secant(name, step):
-        """(dM, dK) secants; a part at the rounding level of its matrix (a parameter
-        that does not enter M, or K) is set to exactly zero."""
+        """(dM, dC, dK, dzeta) secants; a part at the rounding level of its matrix (a
+        parameter that does not enter M, or K, ...) is set to exactly zero."""
         th = dict(theta)
         th[name] = float(theta[name]) * (1.0 + step)
-        M1, K1 = _build(build_mk, th, n)
+        new = _build(build_mk, th, n)
         out = []
-        for new, old, x0 in ((M1, M0, scale[0]), (K1, K0, scale[1])):
-            d = (new - old) / step
+        for mat, old, x0 in zip((new.M, new.C, new.K), mats0, scale, strict=True):
+            d = (mat - old) / step
             # entries at the rounding level of the sums that formed them are noise
-            noise = (abs(new) + abs(old)) * (_ROUNDING / step)
+            noise = (abs(mat) + abs(old)) * (_ROUNDING / step)
             d = d.multiply(abs(d) > noise).tocsr()
             out.append(d if _fro(d) > _ROUNDING * x0 / step else sp.csr_matrix((n, n)))
+        z1, z0 = np.broadcast_arrays(new.modal_damping_ratio, base.modal_damping_ratio)
+        dz = (z1 - z0) / step
+        dz = np.where(np.abs(dz) > (np.abs(z1) + np.abs(z0)) * (_ROUNDING / step), dz, 0.0)
+        out.append(dz)
         return tuple(out)
 
     out, bent = [], []
     for name in names:
         if check_linearity:
-            dM, dK = secant(name, linearity_step)
-            hM, hK = secant(name, 0.5 * linearity_step)
+            full = secant(name, linearity_step)
+            half = secant(name, 0.5 * linearity_step)
             parts = []
-            for full, half in ((dM, hM), (dK, hK)):
-                nf = _fro(full)
-                if nf > 0 or _fro(half) > 0:
-                    parts.append(_fro(full - half) / max(nf, _fro(half)))
+            for f, h in zip(full[:3], half[:3], strict=True):
+                nf, nh = _fro(f), _fro(h)
+                if nf > 0 or nh > 0:
+                    parts.append(_fro(f - h) / max(nf, nh))
+            nf, nh = np.linalg.norm(full[3]), np.linalg.norm(half[3])
+            if nf > 0 or nh > 0:
+                parts.append(float(np.linalg.norm(full[3] - half[3]) / max(nf, nh)))
             mismatch = max(parts) if parts else 0.0
             linear = mismatch <= linearity_tol
+            dM, dC, dK, dz = full
             if not linear:
-                dM, dK = secant(name, relative_step)
+                dM, dC, dK, dz = secant(name, relative_step)
                 bent.append(f"{name!r} ({mismatch:.1e})")
         else:
-            dM, dK = secant(name, relative_step)
+            dM, dC, dK, dz = secant(name, relative_step)
             mismatch, linear = float("nan"), True
         out.append(Macroelement(name=name, dM=_clean(dM), dK=_clean(dK),
                                 value=float(theta[name]), nonlinearity=float(mismatch),
-                                linear=bool(linear)))
+                                linear=bool(linear), dC=_clean(dC), dzeta_modal=dz))
     if bent and warn:
         warnings.warn(
-            f"M and K depend nonlinearly on parameters {', '.join(bent)} (relative mismatch "
-            f"of the secants at steps {linearity_step:g} and {linearity_step / 2:g}; "
+            f"The model matrices depend nonlinearly on parameters {', '.join(bent)} "
+            f"(relative mismatch of the secants at steps {linearity_step:g} and "
+            f"{linearity_step / 2:g}; "
             f"expected below {linearity_tol:g} for a linear parameter such as E or rho); "
             f"their macroelements are linearisations at the current values, valid for "
             f"small changes only. An iterated update re-linearises at every step.",

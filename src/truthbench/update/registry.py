@@ -18,7 +18,7 @@ from typing import ClassVar, Protocol, runtime_checkable
 import numpy as np
 
 from truthbench.update.finite_difference import UpdateResult, finite_difference_update
-from truthbench.update.macroelements import BuildMK
+from truthbench.update.macroelements import BuildMK, BuildSystem
 from truthbench.update.sensitivity import MeasuredModes, sensitivity_update
 
 
@@ -50,13 +50,21 @@ class UpdateProblem:
     n_pairs : int, optional
         Number of SISO transfer functions ``m r`` in ``frf_data`` (checked ``> p``).
     build_mk : callable, optional
-        ``build_mk(theta) -> (M, K)`` (sensitivity localization).
+        ``build_mk(theta) -> (M, K)`` (sensitivity localization, no damping).
     measured : MeasuredModes or sequence of MeasuredModes, optional
-        Identified modes with their model DOF indices (sensitivity localization).
+        Identified modes with their model DOF indices (sensitivity localization); their
+        optional ``damping_ratio`` is used with ``build_model``.
     options : mapping, optional
         Keyword options per updater name, e.g.
         ``{"sensitivity": {"c_phi": 0.2}, "finite_difference": {"max_iterations": 30}}``;
         each updater reads only its own entry.
+    build_model : callable, optional
+        ``build_model(theta)`` returning a :class:`~truthbench.model.StructuralModel`
+        (e.g. ``plant.build``: physical damping ``C`` plus ``modal_damping_ratio``) or
+        ``(M, C, K)``: the model with its damping. Sensitivity localization uses it in
+        place of ``build_mk`` when given; it is needed to update damping parameters
+        (hub dashpot, suspension dashpot, ``modal_damping_ratio``) from measured
+        damping ratios.
     """
 
     names: tuple[str, ...]
@@ -68,6 +76,7 @@ class UpdateProblem:
     build_mk: BuildMK | None = None
     measured: tuple[MeasuredModes, ...] | None = None
     options: Mapping[str, Mapping[str, object]] = field(default_factory=dict)
+    build_model: BuildSystem | None = None
 
     def __post_init__(self):
         names = (self.names,) if isinstance(self.names, str) else tuple(self.names)
@@ -140,13 +149,21 @@ class FiniteDifferenceUpdater:
 class SensitivityUpdater:
     """Sensitivity localization from measured modes (METHOD 5.3,
     :func:`~truthbench.update.sensitivity.sensitivity_update`).
-    Needs ``build_mk`` and ``measured``."""
+    Needs ``measured`` and ``build_model`` (with damping) or ``build_mk``; uses
+    ``build_model`` when both are given."""
 
     name: ClassVar[str] = "sensitivity"
 
     def update(self, problem: UpdateProblem) -> UpdateResult:
-        _require(self.name, problem, ("build_mk", "measured"))
-        return sensitivity_update(problem.build_mk, problem.theta0, problem.names,
+        build = problem.build_model if problem.build_model is not None else problem.build_mk
+        missing = (["build_mk"] if build is None else []) + (
+            ["measured"] if problem.measured is None else [])
+        if missing:
+            raise ValueError(f"updater {self.name!r} needs {missing} in the UpdateProblem; "
+                             f"got None for {'it' if len(missing) == 1 else 'them'} "
+                             f"('build_model', the model with its damping, may stand in "
+                             f"for 'build_mk')")
+        return sensitivity_update(build, problem.theta0, problem.names,
                                   problem.measured, **problem.options_for(self.name))
 
 

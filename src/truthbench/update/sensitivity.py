@@ -33,6 +33,39 @@ The update (:func:`sensitivity_update`) pairs each measured mode to a model mode
 the measured DOFs and frequency, stacks ``[vec dPhi; dlambda]`` over the paired modes and
 solves the weighted least-squares problem ``(W S)^+ W d`` (Eq. 10.44), iterating until
 the parameter changes stop.
+
+Damping
+-------
+When the model builder also returns damping (``(M, C, K)`` or a
+:class:`~truthbench.model.StructuralModel`, see
+:data:`~truthbench.update.macroelements.BuildSystem`) and measured modes carry damping
+ratios, damping parameters can be updated too (the hub dashpot, a suspension dashpot,
+``modal_damping_ratio``). The model's damping is that of
+:class:`~truthbench.model.StructuralModel`: ``Xi = Phi^T C Phi + diag(2 zeta_m omega)``
+in the modal first-order form. Then
+
+* the *residuals* use the model's exact complex modes
+  (:func:`~truthbench.model.complex_modes`, the same numbers as
+  :func:`~truthbench.model.modal_table`): damping ratio ``zeta_i = -Re s_i / |s_i|``,
+  natural frequency ``|s_i|`` in the eigenvalue row, and the complex shape in the shape
+  row (scaled exactly as the measured one). With proportional damping these are the
+  real-mode values, so nothing changes for an undamped or modally damped model.
+* the *Jacobian* uses real modes and the light-damping (first-order) expressions
+  (:func:`damping_sensitivities`)::
+
+      zeta_i ~ zeta_m + phi_i^T C phi_i / (2 omega_i)
+      dzeta_i/dalpha_j = phi_i^T C_j phi_i / (2 omega_i) + zeta_m,j
+                         + phi_i^T C dphi_i/dalpha_j / omega_i
+                         - phi_i^T C phi_i dlambda_i/dalpha_j / (4 omega_i^3)
+
+  (``C_j``, ``zeta_m,j`` the damping macroelement; the last two terms are the effect of
+  a stiffness or mass change on the damping ratio of a dashpot). Eigenvalue and shape
+  sensitivities are those of the real modes.
+
+Because the residuals are exact, a zero residual (the fixed point of the iteration) is
+the exact model even where the first-order Jacobian is poor (a large non-proportional
+dashpot); only the convergence rate suffers (it becomes linear, with a rate set by the
+Jacobian's relative error).
 """
 
 from __future__ import annotations
@@ -48,9 +81,14 @@ import scipy.sparse.linalg as spla
 from truthbench.errors import IdentifiabilityError
 from truthbench.identify.correlation import modal_scale_factor, pair_modes
 from truthbench.identify.modal import ModalParameters
-from truthbench.model import Modes, solve_modes
+from truthbench.model import Modes, complex_modes, solve_modes
 from truthbench.update.finite_difference import UpdateResult
-from truthbench.update.macroelements import BuildMK, Macroelement, macroelement_matrices
+from truthbench.update.macroelements import (
+    BuildSystem,
+    Macroelement,
+    macroelement_matrices,
+    system_matrices,
+)
 
 _EPS = np.finfo(float).eps
 
@@ -79,18 +117,25 @@ class MeasuredModes:
         Index of each measured row in the model's DOF vector (the rows of ``M`` and
         ``K`` returned by ``build_mk``), no repeats.
     weights : array_like, shape (n_meas,), optional
-        Non-negative confidence of each mode; multiplies both its eigenvalue row and its
-        shape rows in ``W`` (default 1).
+        Non-negative confidence of each mode; multiplies its eigenvalue row, its shape
+        rows and its damping row in ``W`` (default 1).
+    damping_ratio : array_like, shape (n_meas,), optional
+        Measured viscous damping ratio of each mode (dimensionless, ``0 <= zeta < 1``,
+        e.g. ``-Re s / |s|`` of an identified pole); NaN marks a mode whose damping was
+        not measured. Absent (None): damping is not data, as before.
 
     Notes
     -----
-    Arrays are stored as read-only copies.
+    Arrays are stored as read-only copies. ``freq_hz`` of a damped mode is its
+    undamped natural frequency ``|s| / (2 pi)`` (as identified by
+    :mod:`truthbench.identify`); the model side is compared the same way.
     """
 
     freq_hz: np.ndarray
     shapes: np.ndarray
     dof_index: np.ndarray
     weights: np.ndarray | None = None
+    damping_ratio: np.ndarray | None = None
 
     def __post_init__(self):
         f = np.array(self.freq_hz, dtype=float)
@@ -127,6 +172,23 @@ class MeasuredModes:
                 raise ValueError(f"MeasuredModes: 'weights' must be finite, non-negative, "
                                  f"of shape {f.shape}; got {self.weights!r}")
             object.__setattr__(self, "weights", _readonly(w))
+        if self.damping_ratio is not None:
+            z = np.array(self.damping_ratio, dtype=float)
+            if z.ndim == 0 and f.size == 1:
+                z = z[None]
+            known = z[np.isfinite(z)] if z.shape == f.shape else z
+            if (z.shape != f.shape or np.any(np.isinf(z)) or np.any(known < 0)
+                    or np.any(known >= 1)):
+                raise ValueError(f"MeasuredModes: 'damping_ratio' must have shape {f.shape} "
+                                 f"(one per mode) with values in [0, 1) or NaN (not "
+                                 f"measured); got {self.damping_ratio!r}")
+            object.__setattr__(self, "damping_ratio", _readonly(z))
+
+    @property
+    def has_damping(self) -> bool:
+        """Whether any mode carries a measured damping ratio."""
+        return self.damping_ratio is not None and bool(np.any(np.isfinite(
+            self.damping_ratio)))
 
     @property
     def n_modes(self) -> int:
@@ -151,9 +213,13 @@ class ModalPairs:
     mac : ndarray, shape (n_pairs,)
         MAC on the measured DOFs.
     freq_error : ndarray, shape (n_pairs,)
-        ``(f_measured - f_model) / f_model``.
+        ``(f_measured - f_model) / f_model`` (``f_model = |s| / (2 pi)`` of the model's
+        pole when the builder models damping).
     unpaired_measured : ndarray of int
         Measured modes without an admissible partner (dropped from that iteration).
+    damping_error : ndarray, shape (n_pairs,), optional
+        ``zeta_measured - zeta_model`` (exact model damping ratio); NaN where the
+        damping was not measured or not modelled. None when no damping was measured.
     """
 
     set_index: int
@@ -162,6 +228,7 @@ class ModalPairs:
     mac: np.ndarray
     freq_error: np.ndarray
     unpaired_measured: np.ndarray
+    damping_error: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -179,7 +246,12 @@ class SensitivityResult(UpdateResult):
     pairing_history : tuple of tuple of ModalPairs
         Per entry of ``history``, one :class:`ModalPairs` per measured set.
     nonlinear : tuple of str
-        Parameters whose M, K dependence was found nonlinear (linearised macroelements).
+        Parameters whose M, K (or C) dependence was found nonlinear (linearised
+        macroelements).
+    row_counts : dict
+        Weighted equations of the final iterate by kind: ``{"shape": ..., "eigenvalue":
+        ..., "damping": ...}`` (the singular values, condition number and correlation
+        are those of all of them together).
     """
 
     method: str = "sensitivity"
@@ -187,6 +259,7 @@ class SensitivityResult(UpdateResult):
     residual_norm: np.ndarray | None = None
     pairing_history: tuple = ()
     nonlinear: tuple[str, ...] = ()
+    row_counts: dict | None = None
 
 
 # --------------------------------------------------------------------------------------
@@ -282,27 +355,145 @@ def eigen_sensitivities(
     return dlam, dphi
 
 
+def _broadcast_zeta(value, m: int, what: str) -> np.ndarray:
+    z = np.asarray(value, dtype=float)
+    if z.ndim == 1 and z.size != m:
+        raise ValueError(f"{what} has {z.size} per-mode values; expected a scalar or {m} "
+                         f"(one per model mode in use, see 'n_model_modes')")
+    return np.broadcast_to(z, (m,))
+
+
+def _zeta_jacobian(Phi, omega, rigid, C, macros, dlam, coef) -> np.ndarray:
+    """First-order ``d zeta_i / d alpha_j``, shape (m, p); NaN rows for rigid modes.
+    ``coef`` as returned by :func:`_coefficients` (``dphi_i,j = Phi coef[j, :, i]``)."""
+    m = omega.size
+    Cm = Phi.T @ np.asarray(C @ Phi) if C.nnz else np.zeros((m, m))
+    Dc = np.stack([np.einsum("ni,ni->i", Phi, np.asarray(me.dC @ Phi)) if me.dC.nnz
+                   else np.zeros(m) for me in macros], axis=1)
+    Dz = np.stack([_broadcast_zeta(me.dzeta_modal, m, f"dzeta_modal of {me.name!r}")
+                   for me in macros], axis=1)
+    cross = 2.0 * np.einsum("ik,jki->ij", Cm, coef, optimize=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(rigid | (omega <= 0), np.nan, omega)[:, None]
+        return (Dc + cross) / (2 * w) - np.diag(Cm)[:, None] * dlam / (4 * w**3) + Dz
+
+
+def damping_sensitivities(
+    modes: Modes,
+    macroelements: Sequence[Macroelement],
+    C=None,
+    modal_damping_ratio: float | np.ndarray = 0.0,
+    *,
+    degenerate_rtol: float = 1e-6,
+) -> np.ndarray:
+    """First-order (light-damping) sensitivities of the modal damping ratios.
+
+    With ``zeta_i ~ zeta_m + phi_i^T C phi_i / (2 omega_i)`` (mass-normalised real modes,
+    the diagonal of the modal damping matrix of :class:`~truthbench.model.StructuralModel`)::
+
+        dzeta_i/dalpha_j = phi_i^T C_j phi_i / (2 omega_i) + zeta_m,j
+                           + phi_i^T C dphi_i/dalpha_j / omega_i
+                           - phi_i^T C phi_i dlambda_i/dalpha_j / (4 omega_i^3)
+
+    For a pure damping parameter (``M_j = K_j = 0``) only the first term (dashpot) or
+    the second (modal damping ratio, ``zeta_m,j = zeta_m``) remains. The error against the
+    exact (complex-pole) damping ratio grows with the damping coupling between modes,
+    ``|phi_k^T C phi_i| omega_i / |omega_k^2 - omega_i^2|``: small for light damping, large
+    for a dashpot that nearly locks a DOF.
+
+    Parameters
+    ----------
+    modes : Modes
+        Mass-normalised real modes of ``(M, K)`` (all of them if possible), shape (n, m).
+    macroelements : sequence of Macroelement
+        ``p`` macroelements with ``dC`` (N s/m) and ``dzeta_modal`` per unit relative change.
+    C : sparse or dense, shape (n, n), optional
+        Physical viscous damping matrix at the linearisation point (N s/m); only the
+        stiffness and mass parameters' cross terms need it. Default zero.
+    modal_damping_ratio : float or ndarray, shape (m,)
+        Not needed by the formula (its derivative is ``dzeta_modal``); accepted so that a
+        model's damping can be passed whole, and checked for shape.
+    degenerate_rtol : float
+        See :func:`eigen_sensitivities`.
+
+    Returns
+    -------
+    ndarray, shape (m, p)
+        ``d zeta_i / d alpha_j`` (dimensionless per unit relative change); NaN for rigid
+        modes.
+    """
+    Phi = np.asarray(modes.shapes, dtype=float)
+    lam = np.asarray(modes.omega_rad_s, dtype=float) ** 2
+    if not macroelements:
+        raise ValueError("damping_sensitivities needs at least one macroelement; got none")
+    n, m = Phi.shape
+    _broadcast_zeta(modal_damping_ratio, m, "modal_damping_ratio")
+    Cs = sp.csr_matrix((n, n)) if C is None else (
+        sp.csr_matrix(C) if sp.issparse(C) else sp.csr_matrix(np.asarray(C, dtype=float)))
+    if Cs.shape != (n, n):
+        raise ValueError(f"damping matrix C has shape {Cs.shape}; expected ({n}, {n})")
+    bad = [me.name for me in macroelements
+           if me.dK.shape != (n, n) or me.dM.shape != (n, n) or me.dC.shape != (n, n)]
+    if bad:
+        raise ValueError(f"macroelements {bad} do not have the modes' {n} DOFs")
+    rigid = np.asarray(modes.rigid, dtype=bool)
+    G, H = _projections(Phi, macroelements)
+    dlam, coef = _coefficients(lam, rigid, G, H, degenerate_rtol,
+                               [me.name for me in macroelements], warn=False)
+    return _zeta_jacobian(Phi, np.sqrt(lam), rigid, Cs, macroelements, dlam, coef)
+
+
 # --------------------------------------------------------------------------------------
 # the update
 # --------------------------------------------------------------------------------------
-def _check_identifiable(names, A, rcond, macros, M, K) -> None:
+def _check_identifiable(names, A, rcond, macros, M, K, damping=None) -> None:
     """IdentifiabilityError for unseen parameters or an inseparable combination of the
-    column-scaled weighted sensitivity matrix ``A`` (as in finite_difference.py)."""
+    column-scaled weighted sensitivity matrix ``A`` (as in finite_difference.py).
+    ``damping``: the ``_State.damping`` bookkeeping (why damping rows are or are not
+    there), to say what a damping parameter lacks."""
     norms = np.linalg.norm(A, axis=0)
     top = norms.max() if norms.size else 0.0
-    dead = [n for n, v in zip(names, norms, strict=True) if not v > 1e-12 * top]
+    dead = [k for k, v in enumerate(norms) if not v > 1e-12 * top]
     if dead:
-        raise IdentifiabilityError(
-            f"parameters {dead} change none of the paired measured eigenvalues or mode "
-            f"shapes at the measured DOFs (zero sensitivity columns); they cannot be "
-            f"updated from these modal data. Measure modes or DOFs where they act, or drop "
-            f"them.")
+        damping = damping or {}
+        only_damping = [k for k in dead if macros[k].kind in ("damping", "modal_damping")]
+        parts = []
+        if only_damping:
+            who = [f"{names[k]} ({macros[k].kind})" for k in only_damping]
+            if damping.get("rows", 0) > 0:
+                why = ("the measured damping ratios of the paired modes do not depend on "
+                       "them: measure the damping ratio of the modes they damp")
+            elif damping.get("c_zeta", 1.0) == 0:
+                why = "the damping rows are switched off ('c_zeta' = 0)"
+            else:
+                why = ("no paired measured mode carries a damping ratio (MeasuredModes."
+                       "damping_ratio is absent or NaN): damping ratios must be measured "
+                       "to update a damping parameter; pass MeasuredModes(..., "
+                       "damping_ratio=...) for the modes they damp")
+            parts.append(
+                f"parameters {who} change only the damping (not M or K), so only measured "
+                f"damping ratios can update them; {why}, or drop them.")
+        rest = [k for k in dead if k not in only_damping]
+        if rest:
+            none = [names[k] for k in rest if macros[k].kind == "none"]
+            hint = ""
+            if none and not damping.get("damped", False):
+                hint = (f" {none} change neither M nor K; if they are damping parameters, "
+                        f"the model builder must return the damping too ((M, C, K) or a "
+                        f"StructuralModel, UpdateProblem.build_model) and the measured "
+                        f"modes their damping ratios.")
+            parts.append(
+                f"parameters {[names[k] for k in rest]} change none of the paired measured "
+                f"eigenvalues, mode shapes at the measured DOFs or damping ratios (zero "
+                f"sensitivity columns); they cannot be updated from these modal data. "
+                f"Measure modes or DOFs where they act, or drop them.{hint}")
+        raise IdentifiabilityError(" ".join(parts))
     if A.shape[0] < A.shape[1]:
         raise IdentifiabilityError(
             f"sensitivity localization needs at least as many weighted equations as "
-            f"parameters; got {A.shape[0]} rows (paired eigenvalues and measured shape "
-            f"entries) for p = {A.shape[1]} parameters {list(names)}. Measure more modes "
-            f"or DOFs, or update fewer parameters.")
+            f"parameters; got {A.shape[0]} rows (paired eigenvalues, measured shape "
+            f"entries and damping ratios) for p = {A.shape[1]} parameters {list(names)}. "
+            f"Measure more modes or DOFs, or update fewer parameters.")
     _, s, Vt = np.linalg.svd(A / norms, full_matrices=False)
     if s[-1] > rcond * s[0]:
         return
@@ -334,7 +525,8 @@ def _check_identifiable(names, A, rcond, macros, M, K) -> None:
     raise IdentifiabilityError(
         f"parameters cannot be separated: with its columns scaled to unit norm the "
         f"weighted modal sensitivity matrix has relative singular value {s[-1] / s[0]:.1e}, "
-        f"below rcond = {rcond:.0e}; the paired eigenvalues and mode shapes do not change "
+        f"below rcond = {rcond:.0e}; the paired eigenvalues, mode shapes and damping ratios "
+        f"do not change "
         f"along {' '.join(parts)} (relative changes). Drop one of these parameters or add "
         f"data that separates them.{hint}")
 
@@ -362,13 +554,14 @@ class _State:
     macros: list
     M: object
     K: object
+    row_counts: dict
+    damping: dict
 
 
 def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
     """Solve, pair, and stack the weighted data and sensitivities at ``theta``."""
-    M, K = build_mk(theta)
-    M = M.tocsr() if sp.issparse(M) else sp.csr_matrix(np.asarray(M, dtype=float))
-    K = K.tocsr() if sp.issparse(K) else sp.csr_matrix(np.asarray(K, dtype=float))
+    sysm = system_matrices(build_mk, theta)
+    M, K = sysm.M, sysm.K
     n = M.shape[0]
     for s, mm in enumerate(measured):
         if mm.dof_index.max() >= n:
@@ -380,18 +573,43 @@ def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
     lam = modes.omega_rad_s ** 2
     rigid = np.asarray(modes.rigid, dtype=bool)
     G, H = _projections(Phi, macros)
-    dlam, C = _coefficients(lam, rigid, G, H, opts["degenerate_rtol"], names,
-                            warn=first)
-    rows_A, rows_b, pairs = [], [], []
+    dlam, coef = _coefficients(lam, rigid, G, H, opts["degenerate_rtol"], names,
+                               warn=first)
+    has_zeta = any(mm.has_damping for mm in measured)
+    if sysm.damped:
+        # the model's exact complex modes (as modal_table reports them) for the residuals
+        _broadcast_zeta(sysm.modal_damping_ratio, modes.n_modes,
+                        "the model's modal_damping_ratio")
+        cm = complex_modes(sysm.structural_model(), modes)
+        lam_model = cm.omega_rad_s ** 2
+        shapes_model = cm.shapes
+        zeta_model = cm.damping_ratio
+    else:
+        lam_model, shapes_model, zeta_model = lam, Phi, None
+    # damping rows: measured damping, a damping model, and a parameter acting on damping
+    use_zeta = (has_zeta and sysm.damped and opts["c_zeta"] > 0
+                and any(me.acts_on_damping for me in macros))
+    dzeta = (_zeta_jacobian(Phi, modes.omega_rad_s, rigid, sysm.C, macros, dlam, coef)
+             if use_zeta else None)
+    if first and has_zeta and not sysm.damped and "no damping model" not in warned:
+        warned.add("no damping model")
+        warnings.warn(
+            "the measured modes carry damping ratios, but the model builder returns only "
+            "(M, K): the damping ratios are not used. Give a builder returning (M, C, K) or "
+            "a StructuralModel (UpdateProblem.build_model) to use them.", stacklevel=3)
+    f_model = np.sqrt(np.abs(lam_model)) / (2 * np.pi)
+    rows_A, rows_b, kinds, weights, pairs = [], [], [], [], []
     for s, mm in enumerate(measured):
         Phi_s = Phi[mm.dof_index]
+        X_s = shapes_model[mm.dof_index]
         # candidates: elastic modes that move at the measured DOFs (a mode seen there only
-        # at rounding level, e.g. y bending by z sensors, has a meaningless MAC)
+        # at rounding level, e.g. y bending by z sensors, has a meaningless MAC) and, with
+        # a damping model, have an oscillatory pole
         seen = np.linalg.norm(Phi_s, axis=0) > opts["visibility_min"] * np.linalg.norm(
             Phi, axis=0)
-        elastic = np.nonzero(~rigid & seen)[0]
-        model_mp = ModalParameters(modes.freq_hz[elastic], np.zeros(elastic.size),
-                                   Phi_s[:, elastic])
+        elastic = np.nonzero(~rigid & seen & np.isfinite(lam_model))[0]
+        model_mp = ModalParameters(f_model[elastic], np.zeros(elastic.size),
+                                   X_s[:, elastic])
         test_mp = ModalParameters(mm.freq_hz, np.zeros(mm.n_modes), mm.shapes)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "only 1 DOF shared": the user chose that
@@ -405,33 +623,56 @@ def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
                 col = pr.mac_matrix[:, j]
                 best = int(np.argmax(col)) if col.size else -1
                 near = (f" (best MAC {col[best]:.2f}, with the model mode at "
-                        f"{modes.freq_hz[elastic[best]]:.4g} Hz)" if best >= 0 else "")
+                        f"{f_model[elastic[best]]:.4g} Hz)" if best >= 0 else "")
                 warnings.warn(
                     f"measured mode {j} of set {s} at {mm.freq_hz[j]:.4g} Hz has no model "
                     f"partner with MAC >= mac_min = {opts['mac_min']}{near}; it is dropped. "
                     f"Lower 'mac_min', check 'dof_index', or measure more DOFs.",
                     stacklevel=3)
+        z_err = None
+        if mm.damping_ratio is not None:
+            z_err = (mm.damping_ratio[meas_idx] - zeta_model[model_idx]
+                     if zeta_model is not None else np.full(meas_idx.size, np.nan))
         pairs.append(ModalPairs(s, model_idx, meas_idx, pr.mac.copy(), pr.freq_error.copy(),
-                                pr.unpaired_test.copy()))
+                                pr.unpaired_test.copy(), z_err))
         w_mode = np.ones(mm.n_modes) if mm.weights is None else mm.weights
         for i, jt in zip(model_idx, meas_idx, strict=True):
             phi = Phi_s[:, i]
+            chi = X_s[:, i]  # the model's shape (complex with non-proportional damping)
             psi = mm.shapes[:, jt]
             msf = modal_scale_factor(phi[:, None], psi[:, None])[0]
+            msf_model = modal_scale_factor(phi[:, None], chi[:, None])[0]
             nphi = np.linalg.norm(phi)
-            S_phi = Phi_s @ C[:, :, i].T  # (n_sens, p): dphi_i at the measured DOFs
+            S_phi = Phi_s @ coef[:, :, i].T  # (n_sens, p): dphi_i at the measured DOFs
             if opts["scale_shapes"]:
+                # measured and model shapes scaled onto phi_i alike: equal when the model
+                # is exact (for real model shapes chi_s = phi exactly)
                 psi_s = np.real(msf * psi)
+                chi_s = np.real(msf_model * chi)
                 # the data is MSF-scaled, so its sensitivity is the projected one
                 S_phi = S_phi - np.outer(phi, phi @ S_phi) / nphi**2
             else:
                 psi_s = np.real(msf / abs(msf) * psi)  # sign / phase only
+                chi_s = np.real(msf_model / abs(msf_model) * chi)
             w_phi = opts["c_phi"] * w_mode[jt] / nphi
             w_lam = opts["c_lambda"] * w_mode[jt] / abs(lam[i])
             rows_A.append(w_phi * S_phi)
-            rows_b.append(w_phi * (psi_s - phi))
+            rows_b.append(w_phi * (psi_s - chi_s))
+            kinds.append(np.zeros(phi.size, int))
+            weights.append(np.full(phi.size, w_phi))
             rows_A.append(w_lam * dlam[i][None, :])
-            rows_b.append(np.array([w_lam * ((2 * np.pi * mm.freq_hz[jt]) ** 2 - lam[i])]))
+            rows_b.append(np.array([w_lam * ((2 * np.pi * mm.freq_hz[jt]) ** 2
+                                             - lam_model[i])]))
+            kinds.append(np.ones(1, int))
+            weights.append(np.full(1, w_lam))
+            if use_zeta and mm.damping_ratio is not None and np.isfinite(
+                    mm.damping_ratio[jt]):
+                w_z = (opts["c_zeta"] * w_mode[jt]
+                       / max(abs(zeta_model[i]), opts["zeta_floor"]))
+                rows_A.append(w_z * dzeta[i][None, :])
+                rows_b.append(np.array([w_z * (mm.damping_ratio[jt] - zeta_model[i])]))
+                kinds.append(np.full(1, 2))
+                weights.append(np.full(1, w_z))
     if not rows_A:
         raise IdentifiabilityError(
             f"no measured mode could be paired to a model mode (MAC >= mac_min = "
@@ -439,13 +680,18 @@ def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
             f"'dof_index' and the shapes, or lower 'mac_min'.")
     A = np.vstack(rows_A)
     b = np.concatenate(rows_b)
-    keep = np.any(A != 0, axis=1) | (b != 0)  # drop rows of zero weight (c_phi = 0)
-    A, b = A[keep], b[keep]
-    return _State(float(b @ b), A, b, tuple(pairs), macros, M, K)
+    kinds = np.concatenate(kinds)
+    keep = np.concatenate(weights) > 0  # drop rows of zero weight (c_phi = 0, w_i = 0)
+    A, b, kinds = A[keep], b[keep], kinds[keep]
+    counts = {k: int(np.sum(kinds == v)) for v, k in enumerate(("shape", "eigenvalue",
+                                                                 "damping"))}
+    damping = {"damped": sysm.damped, "measured": has_zeta, "rows": counts["damping"],
+               "c_zeta": opts["c_zeta"]}
+    return _State(float(b @ b), A, b, tuple(pairs), macros, M, K, counts, damping)
 
 
 def sensitivity_update(
-    build_mk: BuildMK,
+    build_mk: BuildSystem,
     theta0: Mapping[str, float],
     names: Sequence[str],
     measured: MeasuredModes | Sequence[MeasuredModes],
@@ -453,6 +699,8 @@ def sensitivity_update(
     n_model_modes: int | None = None,
     c_lambda: float = 1.0,
     c_phi: float = 0.1,
+    c_zeta: float = 1.0,
+    zeta_floor: float = 1e-3,
     mac_min: float = 0.6,
     max_iterations: int = 30,
     tolerance: float = 1e-8,
@@ -484,12 +732,38 @@ def sensitivity_update(
       With ``scale_shapes=False`` the measured shapes are taken as mass-normalised
       (only the sign is aligned) and ``P_i = I``; then the absolute mass scale is seen.
     * one eigenvalue row ``d = (2 pi f_meas)^2 - lambda_i`` with sensitivity ``dlambda_i``.
+    * with damping (see below), one damping row ``d = zeta_meas - zeta_i`` with
+      sensitivity ``dzeta_i`` (:func:`damping_sensitivities`).
+
+    Damping. If ``build_mk`` returns the damping too (``(M, C, K)`` or a
+    :class:`~truthbench.model.StructuralModel`), the model side of every row is the
+    model's exact complex mode (:func:`~truthbench.model.complex_modes`, as
+    :func:`~truthbench.model.modal_table` reports it): ``lambda_i`` above becomes
+    ``|s_i|^2``, ``phi_i`` in the shape residual becomes the complex model shape scaled
+    exactly like the measured one (``Re(MSF chi_i)``, which is ``phi_i`` for
+    proportional damping), and ``zeta_i = -Re s_i / |s_i|``; pairing uses ``|s_i|`` and
+    those shapes. The Jacobian stays first order (real modes, light damping), so the
+    converged parameters are exact and only the rate of convergence depends on how
+    heavy or non-proportional the damping is. Damping rows enter when (a) the builder
+    models damping, (b) a paired measured mode has a finite ``damping_ratio``,
+    (c) ``c_zeta > 0`` and (d) at least one parameter in ``names`` acts on damping
+    (``dC != 0`` or ``dzeta_modal != 0``): a purely structural update is not pulled by a
+    damping mismatch it cannot fix.
 
     Weights (METHOD 5.3, ``W = diag(c_phi / ||phi_i||, c_lambda / ||lambda_i||)``):
     shape rows ``c_phi w_i / ||phi_i||_2`` with the Euclidean norm of the current model
     shape over the measured DOFs only, eigenvalue rows ``c_lambda w_i / |lambda_i|`` with
-    the current model eigenvalue; ``w_i`` the measured mode's weight. So both parts are
-    relative errors. The step ``alpha = (W S)^+ W d`` is applied as
+    the current model eigenvalue, damping rows ``c_zeta w_i / max(|zeta_i|, zeta_floor)``
+    with the current exact model damping ratio; ``w_i`` the measured mode's weight. So
+    every part is a relative error and the three are commensurate: at ``c = 1`` a 1 %
+    error of an eigenvalue (0.5 % in frequency), a 1 % error of the shape vector and
+    a 1 % error of a damping ratio (e.g. 0.0101 for 0.01) each cost ``0.01^2``. The
+    defaults trust eigenvalues most, damping ratios (relative) as much, shapes 10 times
+    less; identified damping ratios are usually far less accurate than frequencies
+    (METHOD section 4: 10 % and worse), so on noisy data lower ``c_zeta`` (e.g. 0.1)
+    when other parameters also act on damping. The floor keeps a nearly undamped mode
+    (``zeta_i`` ~ 0) from weighting its absolute damping error without bound.
+    The step ``alpha = (W S)^+ W d`` is applied as
     ``theta_k <- theta_k exp(alpha_k)`` (same to first order as ``(1 + alpha_k)``, and
     keeps every parameter's sign), limited to ``max |alpha| <= max_step``. Stop when
     ``max |alpha| < tolerance``.
@@ -498,7 +772,10 @@ def sensitivity_update(
     ----------
     build_mk : callable
         ``build_mk(theta) -> (M, K)``, sparse or dense, shape (n, n), SI units, for a
-        full parameter mapping ``theta``.
+        full parameter mapping ``theta``. To use damping it returns ``(M, C, K)``
+        (``C`` the physical viscous damping matrix, N s/m, may be zero; no modal
+        damping) or a :class:`~truthbench.model.StructuralModel` (``C`` plus its
+        ``modal_damping_ratio``; ``plant.build`` is such a builder).
     theta0 : mapping
         Starting values of all model parameters; not modified.
     names : sequence of str
@@ -511,6 +788,12 @@ def sensitivity_update(
     c_lambda, c_phi : float
         Weights of eigenvalue and shape rows (eigenvalues are trusted more). ``c_phi=0``
         updates from frequencies only.
+    c_zeta : float
+        Weight of the damping-ratio rows (relative errors, see above); ``0`` ignores
+        measured damping. Default 1.0.
+    zeta_floor : float
+        Smallest damping ratio used to make a damping error relative (default 1e-3,
+        0.1 % of critical).
     mac_min : float
         Smallest MAC of an admissible pair.
     max_iterations : int
@@ -546,8 +829,9 @@ def sensitivity_update(
     Raises
     ------
     IdentifiabilityError
-        A parameter the paired modal data cannot see, an inseparable combination (the
-        message names the parameters), fewer equations than parameters, or no pair.
+        A parameter the paired modal data cannot see (a damping parameter without
+        measured damping ratios says so), an inseparable combination (the message names
+        the parameters), fewer equations than parameters, or no pair.
     ValueError
         Bad arguments.
 
@@ -555,7 +839,8 @@ def sensitivity_update(
     -----
     UserWarning
         Unpaired measured modes, nonlinear parameters (linearised macroelements),
-        degenerate modes coupled by a parameter, non-convergence.
+        degenerate modes coupled by a parameter, non-convergence, measured damping
+        ratios with a builder that returns only ``(M, K)``.
     """
     names = tuple(names)
     if not names:
@@ -573,6 +858,11 @@ def sensitivity_update(
     if not (c_lambda >= 0 and c_phi >= 0 and c_lambda + c_phi > 0):
         raise ValueError(f"'c_lambda' and 'c_phi' must be >= 0 and not both 0; got "
                          f"{c_lambda!r} and {c_phi!r}")
+    if not (np.isfinite(c_zeta) and c_zeta >= 0):
+        raise ValueError(f"'c_zeta' must be a finite number >= 0; got {c_zeta!r}")
+    if not (np.isfinite(zeta_floor) and zeta_floor > 0):
+        raise ValueError(f"'zeta_floor' must be a finite positive number; got "
+                         f"{zeta_floor!r}")
     if not 0 <= mac_min <= 1:
         raise ValueError(f"'mac_min' must lie in [0, 1]; got {mac_min!r}")
     if int(max_iterations) != max_iterations or max_iterations < 1:
@@ -582,6 +872,7 @@ def sensitivity_update(
         raise ValueError(f"'tolerance', 'rcond' and 'max_step' must be positive; got "
                          f"{tolerance!r}, {rcond!r}, {max_step!r}")
     opts = dict(n_model_modes=n_model_modes, c_lambda=float(c_lambda), c_phi=float(c_phi),
+                c_zeta=float(c_zeta), zeta_floor=float(zeta_floor),
                 mac_min=float(mac_min), freq_weight=float(freq_weight),
                 scale_shapes=bool(scale_shapes), degenerate_rtol=float(degenerate_rtol),
                 visibility_min=float(visibility_min))
@@ -605,7 +896,8 @@ def sensitivity_update(
             break
         if it == max_iterations:
             break
-        _check_identifiable(names, state.A, rcond, state.macros, state.M, state.K)
+        _check_identifiable(names, state.A, rcond, state.macros, state.M, state.K,
+                            state.damping)
         alpha = np.linalg.lstsq(state.A, state.b, rcond=None)[0]
         alphas.append(alpha.copy())
         step = alpha * min(1.0, max_step / max(np.abs(alpha).max(), 1e-300))
@@ -632,4 +924,4 @@ def sensitivity_update(
         correlation=corr, converged=converged, method="sensitivity",
         alpha_history=np.array(alphas).reshape(len(alphas), len(names)),
         residual_norm=np.sqrt(np.array(costs)), pairing_history=tuple(pairings),
-        nonlinear=nonlinear)
+        nonlinear=nonlinear, row_counts=dict(state.row_counts))
