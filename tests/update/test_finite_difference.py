@@ -95,3 +95,32 @@ def test_bad_arguments():
     with pytest.raises(ValueError, match="weights must have"):
         finite_difference_update(lambda th: np.zeros(3), np.zeros(3), {"a": 1.0}, ["a"],
                                  n_pairs=3, weights=np.ones(2))
+
+
+def test_additive_parameter_starts_at_zero():
+    """A pure delay tau on a known FRF, updated additively from tau = 0 (a relative
+    update cannot leave 0): recovered to 1e-9 s, with the column scaled per unit of the
+    additive scale (one radian at the top of the band)."""
+    f = np.linspace(1.0, 100.0, 200)
+    G = 1.0 / (1 + 1j * f / 30.0)
+
+    def predict(theta):
+        return theta["gain"] * G * np.exp(-2j * np.pi * f * theta["delay_s"])
+
+    data = predict({"gain": 1.2, "delay_s": 0.0012})
+    scale = 1 / (2 * np.pi * 100.0)
+    res = finite_difference_update(predict, data, {"gain": 1.0, "delay_s": 0.0},
+                                   ["gain", "delay_s"], n_pairs=3,
+                                   additive={"delay_s": scale}, tolerance=1e-12)
+    assert res.converged
+    assert res.as_dict()["delay_s"] == pytest.approx(0.0012, abs=1e-9)
+    assert res.as_dict()["gain"] == pytest.approx(1.2, rel=1e-9)
+    S, _ = sensitivity_matrix(predict, {"gain": 1.0, "delay_s": 0.0}, ["delay_s"],
+                              additive={"delay_s": scale})
+    np.testing.assert_allclose(S[:, 0], -2j * np.pi * f * scale * G, rtol=1e-6)
+    with pytest.raises(ValueError, match="non-zero starting values.*delay_s.*additive"):
+        finite_difference_update(predict, data, {"gain": 1.0, "delay_s": 0.0},
+                                 ["gain", "delay_s"], n_pairs=3)
+    with pytest.raises(ValueError, match="additive scales must be positive"):
+        finite_difference_update(predict, data, {"gain": 1.0, "delay_s": 0.0},
+                                 ["gain", "delay_s"], n_pairs=3, additive={"delay_s": -1})

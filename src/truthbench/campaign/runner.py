@@ -317,6 +317,17 @@ def hardware_truth(spec: CampaignSpec, records) -> dict:
             out[key] = float(np.mean(values))
     for key in (k for k in records[0].parameters if "@" in k):  # group-qualified values
         out[key] = float(np.mean([rec.parameters.get(key, np.nan) for rec in records]))
+    # the appended dynamics (APPENDED_PARAMETERS): total delay and total output gain
+    delays, gains = [], []
+    for rec in records:
+        p = rec.parameters
+        delays.append(sum(v for k, v in p.items() if k.startswith("effect.time_delay")
+                          and k.endswith(".delay_s")))
+        gains.append(np.prod([1.0 + v for k, v in p.items()
+                              if k.startswith("effect.sensor_bias")
+                              and k.endswith(".gain_error")]))
+    out["delay_s"] = float(np.mean(delays))
+    out["sensor_gain"] = float(np.mean(gains))
     return out
 
 
@@ -332,21 +343,40 @@ def update_masks(spec: CampaignSpec, records) -> list[np.ndarray]:
     return masks
 
 
+APPENDED_PARAMETERS = {"delay_s": 0.0, "sensor_gain": 1.0}
+"""Update parameters of the measurement chain, not of the plant, with their nominal
+values: every model FRF is multiplied by ``sensor_gain exp(-j omega delay_s)``, what
+the ``time_delay`` and ``sensor_bias`` (gain) effects do to the data. Only the
+finite-difference method can update them: identified modes do not carry them."""
+
+
+def plant_parameters(params: dict) -> dict:
+    """``params`` without the appended-dynamics parameters."""
+    return {k: v for k, v in params.items() if k not in APPENDED_PARAMETERS}
+
+
 def model_frfs(spec: CampaignSpec, params: dict, records, masks) -> list[np.ndarray]:
-    """The model FRFs at each test's update lines, one array per test.
+    """The model FRFs at each test's update lines, one array per test (with the
+    appended dynamics of :data:`APPENDED_PARAMETERS` found in ``params``).
 
     One model carries every test's actuators and sensors, so the structure is assembled
     and solved once per parameter set; each test takes its own rows and columns."""
     ios = [_io(spec, j) for j in range(len(records))]
     acts = list(dict.fromkeys(a for a_j, _ in ios for a in a_j))
     sens = list(dict.fromkeys(s for _, s_j in ios for s in s_j))
-    model = spec.make_plant().build(params, acts, sens)
+    model = spec.make_plant().build(plant_parameters(params), acts, sens)
     modes = model.modes()
+    gain = params.get("sensor_gain", 1.0)
+    delay = params.get("delay_s", 0.0)
     out = []
     for (a_j, s_j), rec, mask in zip(ios, records, masks, strict=True):
         rows = [sens.index(s) for s in s_j]
         cols = [acts.index(a) for a in a_j]
-        out.append(model.frf(rec.freq_hz[mask], modes=modes)[:, rows][:, :, cols])
+        f = rec.freq_hz[mask]
+        H = model.frf(f, modes=modes)[:, rows][:, :, cols]
+        if gain != 1.0 or delay != 0.0:
+            H = H * (gain * np.exp(-2j * np.pi * f * delay))[:, None, None]
+        out.append(H)
     return out
 
 
@@ -383,7 +413,8 @@ def measured_modes(spec: CampaignSpec, records, params: dict) -> list:
                 dofs.append(labels.index(label))
         if rows:
             out.append(MeasuredModes(np.asarray(rec.modes.freq_hz),
-                                     np.asarray(rec.modes.shapes)[rows], np.array(dofs)))
+                                     np.asarray(rec.modes.shapes)[rows], np.array(dofs),
+                                     damping_ratio=np.asarray(rec.modes.damping_ratio)))
     return out
 
 
@@ -395,7 +426,9 @@ def update_trial(spec: CampaignSpec, records, method: str | None = None):
     method = method or spec.update_methods()[0]
     masks = update_masks(spec, records)
     data = np.concatenate([rec.H[m].ravel() for rec, m in zip(records, masks, strict=True)])
-    nominal = spec.nominal_parameters()
+    u = spec.update
+    nominal = {**spec.nominal_parameters(),
+               **{k: v for k, v in APPENDED_PARAMETERS.items() if k in u.parameters}}
     plant = spec.make_plant()
 
     def predict(theta):
@@ -405,17 +438,21 @@ def update_trial(spec: CampaignSpec, records, method: str | None = None):
         model = plant.build(theta)
         return model.M, model.K
 
-    u = spec.update
+    f_max = max(float(rec.freq_hz[m].max()) for rec, m in zip(records, masks, strict=True))
     problem = UpdateProblem(
         names=tuple(u.parameters), theta0=nominal, predict_frf=predict, frf_data=data,
         frf_weights=_weights(spec, records, masks),
         n_pairs=sum(rec.H.shape[1] * rec.H.shape[2] for rec in records),
-        build_mk=build_mk,
+        build_mk=build_mk, build_model=plant.build,
         measured=measured_modes(spec, records, nominal) if method == "sensitivity" else None,
-        options={"finite_difference": dict(max_iterations=u.max_iterations,
-                                           tolerance=u.tolerance,
-                                           relative_step=u.relative_step, scheme=u.scheme),
-                 "sensitivity": dict(max_iterations=u.max_iterations, mac_min=0.8)})
+        options={"finite_difference": dict(
+                     max_iterations=u.max_iterations, tolerance=u.tolerance,
+                     relative_step=u.relative_step, scheme=u.scheme,
+                     # a delay starts at 0: additive, one radian at the band's top per unit
+                     additive={"delay_s": 1.0 / (2 * np.pi * f_max)}
+                     if "delay_s" in u.parameters else None),
+                 "sensitivity": dict(max_iterations=u.max_iterations, mac_min=0.8,
+                                     c_zeta=u.c_zeta)})
     return get_updater(method).update(problem), masks
 
 
@@ -529,7 +566,8 @@ def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
             comparison[method] = res
             with watch("score"):
                 accuracy[method] = modal_accuracy(spec, hardware,
-                                                  {**nominal, **res.as_dict()})
+                                                  plant_parameters({**nominal,
+                                                                    **res.as_dict()}))
             if method == methods[0]:
                 result = res
         updated = {**nominal, **result.as_dict()}
@@ -538,8 +576,8 @@ def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
             if stage is not None:
                 from truthbench.campaign.uncertainty_stage import model_values
 
-                stage = replace(stage,
-                                theta_updated=model_values(spec, updated, stage.mode_index))
+                stage = replace(stage, theta_updated=model_values(
+                    spec, plant_parameters(updated), stage.mode_index))
             full = [(rec.freq_hz > 0) for rec in records]
             h_initial = tuple(model_frfs(spec, nominal, records, full))
             h_updated = tuple(model_frfs(spec, updated, records, full))

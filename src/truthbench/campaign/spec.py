@@ -118,6 +118,9 @@ class UpdateSpec(_Strict):
     tolerance: PositiveFloat = 1e-7
     relative_step: Annotated[float, Field(gt=0, lt=0.1)] = 1e-4
     scheme: Literal["central", "forward"] = "central"
+    c_zeta: NonNegFloat = 1.0
+    """Sensitivity localization: weight of the damping-ratio rows (used when a damping
+    parameter is updated; identified damping is less accurate than frequency)."""
 
 
 class UncertaintySpec(_Strict):
@@ -282,8 +285,17 @@ def _check_references(spec: CampaignSpec) -> None:
                 plant.station_node(eff.options["station"])
             except ModelError as exc:
                 raise CampaignError(f"{src}: effect {eff.name!r}: {exc}") from None
+    from truthbench.campaign.runner import APPENDED_PARAMETERS
+
+    appended = [k for k in spec.update.parameters if k in APPENDED_PARAMETERS]
     for key in spec.update.parameters:
-        check_param(key, "update.parameters")
+        if key not in APPENDED_PARAMETERS:
+            check_param(key, "update.parameters")
+    if appended and "sensitivity" in spec.update_methods():
+        raise CampaignError(f"{src}: key 'update.parameters': {appended} belong to the "
+                            f"measurement chain, which identified modes do not carry (a delay "
+                            f"does not move the poles, a gain does not change scaled shapes); "
+                            f"update them with 'finite_difference' only")
     from truthbench.update import UPDATERS
 
     for m in spec.update_methods():

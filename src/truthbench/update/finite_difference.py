@@ -97,6 +97,7 @@ def sensitivity_matrix(
     relative_step: float = 1e-4,
     scheme: str = "central",
     G0: np.ndarray | None = None,
+    additive: Mapping[str, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Finite-difference FRF sensitivities to relative parameter changes (Eq. 10.17).
 
@@ -114,11 +115,16 @@ def sensitivity_matrix(
         as t against E and rho); forward is the chapter's Eq. 10.17 and costs half.
     G0 : ndarray, optional
         ``predict(theta)`` if already known.
+    additive : mapping of str -> float, optional
+        Parameters changed additively instead, name -> scale ``a_k`` (the parameter's
+        own unit): ``theta_k +- h a_k``, for parameters whose natural value can be 0
+        (a delay).
 
     Returns
     -------
     S : ndarray, complex, shape (G.size, p)
-        ``dG / dp_k`` per unit relative change of each parameter.
+        ``dG / dp_k`` per unit relative change of each parameter (per ``a_k`` for an
+        additive one).
     G0 : ndarray
         The prediction at ``theta``.
     """
@@ -126,18 +132,25 @@ def sensitivity_matrix(
         raise ValueError(f"scheme must be 'central' or 'forward'; got {scheme!r}")
     if G0 is None:
         G0 = np.asarray(predict(theta))
+    additive = additive or {}
     cols = []
     for name in names:
         up = dict(theta)
-        up[name] = theta[name] * (1 + relative_step)
+        up[name] = _stepped(theta[name], relative_step, additive.get(name))
         Gp = np.asarray(predict(up))
         if scheme == "forward":
             cols.append((Gp - G0).ravel() / relative_step)
         else:
             dn = dict(theta)
-            dn[name] = theta[name] * (1 - relative_step)
+            dn[name] = _stepped(theta[name], -relative_step, additive.get(name))
             cols.append((Gp - np.asarray(predict(dn))).ravel() / (2 * relative_step))
     return np.column_stack(cols), G0
+
+
+def _stepped(value: float, d: float, scale: float | None) -> float:
+    """``value`` moved by ``d``: relatively (``value e^d``, log-parameters; ``1 + d`` in
+    finite differences is the same to first order) or additively (``value + d scale``)."""
+    return value + d * scale if scale is not None else value * (1 + d)
 
 
 def _check_identifiable(names, A, rcond) -> None:
@@ -178,6 +191,7 @@ def finite_difference_update(
     scheme: str = "central",
     rcond: float = 1e-4,
     max_step: float = 0.5,
+    additive: Mapping[str, float] | None = None,
 ) -> UpdateResult:
     """Iterated finite-difference frequency-domain update (METHOD 5.1).
 
@@ -210,6 +224,11 @@ def finite_difference_update(
     max_step : float
         Largest change of any log-parameter in one iteration (0.5: a factor of 1.65);
         a trust region that keeps a far linearisation from throwing a parameter away.
+    additive : mapping of str -> float, optional
+        Parameters updated additively, name -> scale in the parameter's unit (steps and
+        the trust region count in units of the scale): for parameters that may start
+        at 0 or change sign, e.g. a delay (appended dynamics) with scale
+        ``1 / (2 pi f_max)``, one radian of phase at the top of the band.
 
     Returns
     -------
@@ -228,9 +247,15 @@ def finite_difference_update(
     if missing:
         raise ValueError(f"parameters {missing} are not model parameters; expected names "
                          f"from {sorted(theta0)}")
-    if any(theta0[n] == 0 for n in names):
-        raise ValueError("relative updating needs non-zero starting values; got 0 for "
-                         f"{[n for n in names if theta0[n] == 0]}")
+    additive = dict(additive or {})
+    bad = {n: a for n, a in additive.items() if n not in names or not (np.isfinite(a) and a > 0)}
+    if bad:
+        raise ValueError(f"additive scales must be positive numbers for updated parameters "
+                         f"{list(names)}; got {bad}")
+    zero = [n for n in names if theta0[n] == 0 and n not in additive]
+    if zero:
+        raise ValueError(f"relative updating needs non-zero starting values; got 0 for "
+                         f"{zero} (update them additively: 'additive' scales)")
     check_overdetermined(n_pairs, p)
     data = np.asarray(data)
     w = np.ones(data.shape) if weights is None else np.asarray(weights, dtype=float)
@@ -257,7 +282,7 @@ def finite_difference_update(
     dx = np.zeros(p)
     for _ in range(max_iterations):
         S, _ = sensitivity_matrix(predict, theta, names, relative_step=relative_step,
-                                  scheme=scheme, G0=G)
+                                  scheme=scheme, G0=G, additive=additive)
         A = _stack(S * w_flat[:, None])
         b = _stack((w * (data - G)).ravel())
         _check_identifiable(names, A, rcond)
@@ -272,7 +297,7 @@ def finite_difference_update(
             dx = dx * min(1.0, max_step / max(np.abs(dx).max(), 1e-300))
             trial = dict(theta)
             for n, d in zip(names, dx, strict=True):
-                trial[n] = theta[n] * np.exp(d)
+                trial[n] = theta[n] + d * additive[n] if n in additive else theta[n] * np.exp(d)
             try:
                 G_trial = np.asarray(predict(trial))
                 c_trial = cost(G_trial)
