@@ -793,7 +793,10 @@ def _compute(
     """The engine proper, on validated inputs."""
     n_in = xa.shape[0]
     n_paired = n_in + ya.shape[0] - 1 if output_cross else n_in
-    scale = _onesided_density_scale(float(np.dot(w_out, w_out)), fs, plan.nperseg, plan.n_averages)
+    # sum of squares without BLAS: a BLAS call wakes OpenBLAS's threads, whose
+    # spin-waiting then costs more CPU than the whole product stage (measured 40 %)
+    energy = float(np.sum(w_out * w_out))
+    scale = _onesided_density_scale(energy, fs, plan.nperseg, plan.n_averages)
     with np.errstate(invalid="ignore", over="ignore"):  # non-finite data: reported below
         auto, cross = _segment_sums(
             [(xa, w_in), (ya, w_out)], plan, detrend_mode, workers, n_paired
