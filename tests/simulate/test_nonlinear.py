@@ -266,6 +266,22 @@ def test_three_mass_chain_matches_event_located_solve_ivp():
     assert np.all(np.abs(res.f_nl[0, ~stuck]) == 30.0)
 
 
+@pytest.mark.parametrize(("fc", "seed"), [(20.0, 3), (10.0, 4)])
+def test_two_sign_changes_within_one_step_match_solve_ivp(fc, seed):
+    """Sampled at 80 Hz the chain's modes at 21 and 27 Hz make the friction point's
+    velocity touch zero and come back within one step (stick and breakaway, or two
+    reversals, between two samples): the gate is positive at both ends of such a step.
+    Without a look inside the step both cases were missed (errors of 0.2 here)."""
+    m, a, b, c = chain3()
+    fs, n = 80.0, 400
+    u = band_limited_random(n, fs, 50.0, (0.0, 36.0), np.random.default_rng(seed))
+    el = dof_element(CoulombFriction(fc), m, 1)
+    res = simulate_nonlinear(a, b, c, None, u, 1 / fs, [el], backend=ENGINE)
+    ref = friction_reference(a, b, c, el.velocity_row, el.force_column, fc, u, 1 / fs)
+    assert res.n_reversals[0] > 100 and res.n_stick_events[0] >= 5
+    assert rel_err(res.y, ref) < 1e-8
+
+
 def test_rigid_body_mode_while_slipping_matches_solve_ivp():
     """Free-free chain with friction of mass 1 to ground: slipping, the system has a
     rigid-body mode (the block path with its matrix exponentials); stuck, it has none."""
@@ -440,6 +456,59 @@ def test_engines_agree():
     assert rel_err(r2.y, r1.y) < 1e-12
     assert np.array_equal(r1.stuck, r2.stuck)
     assert np.array_equal(r1.n_reversals, r2.n_reversals)
+
+
+@needs_numba
+def test_engines_agree_with_a_single_friction_element():
+    """One friction element and nothing else takes the lean per-step path of the
+    compiled loop (gate and records straight from the element's row)."""
+    m, a, b, c = chain3()
+    fs, n = 1000.0, 1500
+    u = band_limited_random(n, fs, 50.0, (0.0, 60.0), np.random.default_rng(3))
+    system = prepare_nonlinear(a, b, c, None, 1 / fs, [dof_element(CoulombFriction(30.0), m, 1)])
+    r1 = system.simulate(u, backend="numpy")
+    r2 = system.simulate(u, backend="numba")
+    assert r1.n_stick_events[0] >= 5
+    assert rel_err(r2.y, r1.y) < 1e-12
+    assert np.array_equal(r1.stuck, r2.stuck)
+    assert np.allclose(r2.f_nl, r1.f_nl, rtol=0, atol=1e-9 * np.abs(r1.f_nl).max())
+    assert np.allclose(r2.velocity, r1.velocity, rtol=0,
+                       atol=1e-12 * np.abs(r1.velocity).max())
+    assert np.array_equal(r1.n_reversals, r2.n_reversals)
+
+
+@pytest.mark.parametrize("which", ["modes", "block"])
+def test_exponential_fallback_matches_the_step_tables(monkeypatch, which):
+    """Within a step the state is propagated from tables on a grid of the step plus a
+    Taylor step; modes too stiff for the grid and large or stiff dense blocks use
+    exponentials instead. Forcing that fallback everywhere gives the same response."""
+    from truthbench.simulate import nonlinear as nl
+
+    if which == "modes":
+        a, b, c, _ = sdof(zeta=0.01)
+        fs, n = 200.0, 1200
+        u = band_limited_random(n, fs, 10.0, (0.0, 20.0), np.random.default_rng(0))
+        el = NonlinearElement(CoulombFriction(5.0), [1.0, 0.0], [0.0, 1.0], [0.0, 1.0])
+    else:
+        m, a, b, c = free_chain()
+        fs, n = 500.0, 700
+        u = band_limited_random(n, fs, 20.0, (0.0, 40.0), np.random.default_rng(5))
+        el = dof_element(CoulombFriction(6.0), m, 0)
+    tables = prepare_nonlinear(a, b, c, None, 1 / fs, [el])
+    assert all(tables._arrays["dims"][:, 1] == tables._arrays["dims"][:, 0])  # all tabulated
+    monkeypatch.setattr(nl, "_X_TABLE", 0.0)
+    exps = prepare_nonlinear(a, b, c, None, 1 / fs, [el])
+    dims = exps._arrays["dims"]
+    assert np.all(dims[:, 3] == 0)  # no block tabulated
+    if which == "modes":
+        assert dims[0, 1] == 0  # slipping: no mode tabulated (a stuck s = 0 would be)
+    else:
+        assert tables.paths == ("block", "modal") and dims[0, 2] > 0
+    r1 = tables.simulate(u, backend=ENGINE)
+    r2 = exps.simulate(u, backend=ENGINE)
+    assert r1.n_stick_events[0] >= 3 and r1.n_reversals[0] >= 3
+    assert rel_err(r2.y, r1.y) < 1e-10
+    assert np.array_equal(r1.stuck, r2.stuck)
 
 
 def test_two_friction_elements_and_a_force_feedthrough():

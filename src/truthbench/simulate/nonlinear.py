@@ -34,18 +34,27 @@ free rigid-body rotation of a slipping hub bearing, a small dense block, as
 :mod:`~truthbench.simulate.linear` does. Per step the current regime advances over the
 whole step. If at the step end a slipping element's velocity has changed sign, or a
 stuck element's holding force exceeds ``F_c``, the step is redone from its start on the
-exact intra-step solution (``exp(s h)`` per mode, a matrix exponential of the small
-block): the first event is estimated from a quintic Hermite interpolant of the gate
-(value and two exact time derivatives at both ends) and polished by Newton's method on
-the exact solution to ``1e-12 dt``. At a velocity zero the trial holding force decides:
+exact intra-step solution: the first event is estimated from a quintic Hermite
+interpolant of the gate (value and two exact time derivatives at both ends) and polished
+by Newton's method on the exact solution to ``1e-12 dt``. The exact state at an
+arbitrary time inside a step comes from tables of ``exp(s h)`` and the two input
+integrals on a grid of the step (prepared per regime) and the state's Taylor series over
+the rest of the way, a few multiply-adds per mode and no exponential (exponentials only
+for modes too stiff for the grid). At a velocity zero the trial holding force decides:
 within ``F_c`` the element sticks (the state goes into the new regime through ``x``;
 its velocity, zero to root-finding accuracy, is projected out), beyond it the velocity
-reverses, which keeps the regime and only superposes the force jump on the step-end
-state. A stuck element whose holding force reaches ``F_c`` slips in the direction of
-``-sign(h)``. The response is exact up to the event location and rounding (measured
-against solve_ivp restarted at every event: ~1e-11 of the RMS response), with one
-limitation: two sign changes of one velocity *within one step* (a touch of zero and
-back) are not seen, so keep ``dt`` well below the shortest period that matters.
+reverses, which keeps the regime and only adds the response to the force jump to the
+step-end state. A stuck element whose holding force reaches ``F_c`` slips in the
+direction of ``-sign(h)``. A velocity that touches zero and comes back *within one step*
+(stick and breakaway, or two reversals, between two samples) leaves the gate positive at
+both ends: a gate near zero is also checked inside the step (the quintic through its
+values and derivatives at both ends, with a wide margin, then the exact least value of
+the gate). The response is exact up to the event location and rounding (measured
+against solve_ivp restarted at every event: 1e-10 to 1e-12 of the RMS response, also for
+a 40-mode model driven up to 0.4 fs), with one limitation: after a reversal inside a
+step, a further touch of zero and back of the same velocity within that step (three sign
+changes in one step) is not looked for; keep ``dt`` below the shortest period that
+matters.
 
 **Smooth elements are second order in dt.** Their force is taken linear in time over a
 step (like the input) between ``f_j`` and ``f_{j+1} = f(d_{j+1}, v_{j+1})``, an implicit
@@ -54,14 +63,18 @@ equation solved by Newton's method on the exact linear sensitivity of ``d_{j+1}`
 the force interpolation costs ``O(dt^2)`` (measured order 2 in the tests). In a step with
 a friction event the smooth forces keep the ramp predicted for that step.
 
-Cost (``bench/bench_nonlinear.py``, 40 modes, 4 outputs): a step without an event costs
-about 1.5-2 times a step of :meth:`~truthbench.simulate.linear.LtiRecursion.simulate`;
-each friction event (reversal, stick, breakaway) costs about 10-15 us, so the total
-depends on how often the friction point's velocity changes sign. The loop runs compiled
-by numba (``numba.njit(cache=True)``) when numba can be imported (``backend="auto"``),
-else interpreted: the same source, the same arithmetic, fine for small systems. The
-compiled loop is large: compiling it on a cold cache takes 15-40 s of CPU (once per
-machine and source version; later processes load it in well under a second).
+Cost (``bench/bench_nonlinear.py``, 40 modes, 4 outputs, 2**16 samples): a step without
+an event costs about 1.6-1.9 times a step of
+:meth:`~truthbench.simulate.linear.LtiRecursion.simulate`; a velocity reversal about
+1-2 us, a stick or breakaway (a regime change through the full state) a few us, and a
+step whose gate is near zero a little more (the check for a dip inside). So the total
+depends on how often the friction point's velocity changes sign: about 2x the linear
+time with some hundreds of events, 2.5x with about a thousand, 4.5-5x with 7500 (a
+reversal every nine samples). The loop runs compiled by numba (``numba.njit(cache=True)``)
+when numba can be imported (``backend="auto"``), else interpreted: the same source, the
+same arithmetic, fine for small systems. The compiled loop is large: compiling it on a
+cold cache takes one to two minutes of CPU (once per machine and source version; later
+processes load it from the cache in about half a second).
 
 This module belongs to ``truthbench.simulate``, which owns excitation, noise and time
 simulation.
@@ -438,6 +451,63 @@ def _realize(a: np.ndarray, b: np.ndarray) -> dict:
             "path": "state"}
 
 
+#: largest ``|s| dt / (2 n_grid)`` for the kernel's Taylor step from a grid point to the
+#: first term left out (``x^(d+3)/(d+3)!``, ``d`` the fixed degree) being below 1e-18
+_X_TABLE = (1e-18 * math.factorial(_kern.TAYLOR_DEGREE + 3)) ** (
+    1.0 / (_kern.TAYLOR_DEGREE + 3))
+#: the grid of a step at which intra-step propagation is tabulated: 16 to 256 points
+_GRID_MIN, _GRID_MAX = 16, 256
+#: largest dense block whose intra-step propagation is tabulated
+_MAX_TABLE_BLOCK = 8
+
+
+def _grid_size(parts: list[dict], dt: float) -> int:
+    """Points of the step grid: the fewest (a power of two) that put every mode and small
+    block within reach of the Taylor step; stiffer ones use exponentials."""
+    smax = 0.0
+    for part in parts:
+        smax = max(smax, float(np.max(np.abs(part["s"]), initial=0.0)))
+        if 0 < part["nk"] <= _MAX_TABLE_BLOCK:
+            smax = max(smax, float(np.linalg.norm(part["T"], np.inf)))
+    n_grid = _GRID_MIN
+    while n_grid < _GRID_MAX and smax * dt / (2 * n_grid) > _X_TABLE:
+        n_grid *= 2
+    return n_grid
+
+
+def _tables(part: dict, dt: float, n_grid: int) -> dict:
+    """Intra-step propagation tables of one regime at ``h_k = k dt / n_grid``.
+
+    Modes (sorted by ``|s|``; the first ``nt`` are within reach of the Taylor step):
+    ``tab[k] = [Re, Im of E, F1, F2]`` with ``E = exp(s h)``, ``F1 = h phi1(s h)``,
+    ``F2 = h^2 phi2(s h)`` (state, constant and ramp input). Block: the same three as
+    matrices (``expm`` of the augmented matrix) when it is small and not stiff (``btab``).
+    """
+    s, t_blk = part["s"], part["T"]
+    hk = dt * np.arange(n_grid + 1) / n_grid
+    nt = int(np.count_nonzero(np.abs(s) * dt / (2 * n_grid) <= _X_TABLE))
+    a = np.outer(hk, s)
+    p1, p2 = _phi12(a)
+    e, f1, f2 = np.exp(a), hk[:, None] * p1, (hk**2)[:, None] * p2
+    tab = np.stack([e.real, e.imag, f1.real, f1.imag, f2.real, f2.imag], axis=1)
+    nk = t_blk.shape[0]
+    x_blk = float(np.linalg.norm(t_blk, np.inf)) * dt / (2 * n_grid) if nk else 0.0
+    btab = 0 < nk <= _MAX_TABLE_BLOCK and x_blk <= _X_TABLE
+    kb = nk if btab else 0
+    etab = np.zeros((n_grid + 1, 3, kb, kb))
+    if btab:
+        eye = np.eye(nk)
+        for k, h in enumerate(hk):
+            m = np.zeros((3 * nk, 3 * nk))
+            m[:nk, :nk] = t_blk * h
+            m[:nk, nk : 2 * nk] = eye * h
+            m[nk : 2 * nk, 2 * nk :] = eye * h
+            ex = scipy.linalg.expm(m)
+            etab[k] = ex[:nk].reshape(nk, 3, nk).transpose(1, 0, 2)
+    return dict(dims=np.array([s.size, nt, nk, int(btab)], dtype=np.int64), tab=tab,
+                etab=etab, s2=np.vstack([s.real, s.imag]))
+
+
 def _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt):
     """Everything the kernel needs for the regime whose stuck friction set is ``mask``.
 
@@ -513,15 +583,24 @@ def _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt):
         rb = q @ rb
         left = left @ q.T
         lb = lb @ q.T
-    s = real["s"]
+    # modes by |s|: the ones the kernel's tables cover come first
+    order = np.argsort(np.abs(real["s"]), kind="stable")
+    s = real["s"][order]
+    bm = real["bm"][order]
+    right = right[:, order]
+    left = left[order]
     phi1, phi2 = _phi12(s * dt)
     w0, w1 = dt * (phi1 - phi2), dt * phi2
-    bm = real["bm"]
     g0 = (w0[:, None] * bm).T
     g1 = (w1[:, None] * bm).T
     cm = c_rows.astype(complex) @ right
     ck = c_rows @ rb
-    ad, bd0, bd1 = _discretize(real["T"], real["Bk"], dt, "foh")
+    t_blk, b_blk = real["T"], real["Bk"]
+    ad, bd0, bd1 = _discretize(t_blk, b_blk, dt, "foh")
+    # a row's time derivatives: (c z)' = (c s) z + c Bm w, (c z)'' = (c s^2) z + ...
+    cs = cm * s[None, :]
+    d1 = (cm @ bm).real + ck @ b_blk
+    d2 = (cs @ bm).real + ck @ t_blk @ b_blk
     # sensitivity of the step-end rows to the element forces at the step end (Newton
     # correction of the smooth forces)
     cols = np.r_[n_in : n_in + n_nl]
@@ -534,14 +613,27 @@ def _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt):
     act = list(range(n_out)) + [n_out + e for e in range(n_nl) if e not in fric]
     act += [n_out + n_nl + e for e in range(n_nl) if e not in stuck_set]
     act += [n_out + 2 * n_nl + e for e in stuck]
-    act += [c_rows.shape[0] - 1] * max(0, 4 - len(act))
+    # five rows go with the modal update, the others four at a time: pad with the zero row
+    n_act = 5 + 4 * max(0, -(-(len(act) - 5) // 4))
+    act += [c_rows.shape[0] - 1] * (n_act - len(act))
     smax = max(float(np.max(np.abs(s), initial=0.0)),
-               float(np.linalg.norm(real["T"], np.inf)) if real["T"].size else 0.0)
+               float(np.linalg.norm(t_blk, np.inf)) if t_blk.size else 0.0)
+    # active rows with a direct input term (the others skip it at every step)
+    dact = [o for o in dict.fromkeys(act) if np.any(d_rows[o] != 0.0)]
+    lam = np.exp(s * dt)
+    cs2 = cs * s[None, :]
     return dict(
-        nm=s.size, nk=real["T"].shape[0], s=s, bm=bm, lam=np.exp(s * dt), g0=g0, g1=g1,
-        cm=cm, rec=right, tom=left, T=real["T"], Bk=real["Bk"], ad=ad, bd0=bd0, bd1=bd1,
-        ck=ck, recb=rb, tob=lb, dr=d_rows, hx=hx, hw=hw, sens=sens, smax=smax,
-        act=np.array(act, dtype=np.int64),
+        nm=s.size, nk=t_blk.shape[0], s=s, T=t_blk, smax=smax,
+        lam=np.stack([lam.real, lam.imag]),
+        g=np.stack([g0.real, g0.imag, g1.real, g1.imag]),
+        bm=np.stack([bm.T.real, bm.T.imag]),
+        crow=np.stack([cm.real, cm.imag, cs.real, cs.imag, cs2.real, cs2.imag]),
+        rec=np.stack([right.real, right.imag]),
+        tom=np.stack([left.T.real, left.T.imag]),
+        tblk=t_blk, bblk=b_blk, ad=ad, bd=np.stack([bd0, bd1]),
+        ckr=np.stack([ck, ck @ t_blk, ck @ t_blk @ t_blk]), recb=rb, tob=lb,
+        dw=np.stack([d_rows, d1, d2]), hx=hx, hw=hw, sens=sens,
+        act=np.array(act, dtype=np.int64), dact=np.array(dact, dtype=np.int64),
         path=real["path"],
         cond=real["cond"],
     )
@@ -709,15 +801,9 @@ class NonlinearSystem:
         arr = self._arrays
         if uu.shape[0] == 0:
             uu = np.zeros((0, uu.shape[1]))
-        out = run(
-            uu, self.dt, x, self.n_outputs, arr["nm"], arr["nk"], arr["smax"], arr["s"],
-            arr["bm"], arr["lamr"], arr["lami"], arr["g0r"], arr["g0i"], arr["g1r"],
-            arr["g1i"], arr["cm"], arr["cmr"], arr["cmi"], arr["recr"], arr["reci"],
-            arr["tomr"], arr["tomi"], arr["T"], arr["Bk"], arr["ad"], arr["bd0"], arr["bd1"],
-            arr["ck"], arr["recb"], arr["tob"], arr["dr"], arr["hx"], arr["hw"], arr["sens"],
-            arr["act"], arr["nact"], arr["kind"], arr["par"], arr["fbit"], arr["cd"], arr["cv"], 50,
-            int(max_events_per_step),
-        )
+        reg = tuple(arr[key] for key in _kern.REGIME_ARRAYS)
+        out = run(uu, self.dt, x, self.n_outputs, arr["n_grid"], reg, arr["kind"],
+                  arr["par"], arr["fbit"], arr["cd"], arr["cv"], 50, int(max_events_per_step))
         y, f, disp, vel, stuck, n_stick, n_rev, fail = out
         if fail >= 0:
             raise ConvergenceError(
@@ -847,34 +933,35 @@ def prepare_nonlinear(A, B, C, D, dt: float, elements) -> NonlinearSystem:
         _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt)
         for mask in range(2 ** len(fric))
     ]
+    n_grid = _grid_size(parts, dt)
+    for part in parts:
+        part.update(_tables(part, dt, n_grid))
     m_max = max(p["nm"] for p in parts)
     k_max = max(p["nk"] for p in parts)
+    k_tab = max(p["etab"].shape[2] for p in parts)
     n_w = n_in + n_nl
+    n_tab = n_grid + 1
     st = functools.partial(_stack, parts)
-    cm = st("cm", (n_rows, m_max), complex)
-    rec = st("rec", (n, m_max), complex)
-    tom = st("tom", (m_max, n), complex)
-    g0 = st("g0", (n_w, m_max), complex)
-    g1 = st("g1", (n_w, m_max), complex)
-    lam = st("lam", (m_max,), complex)
     arrays = dict(
-        nm=np.array([p["nm"] for p in parts], dtype=np.int64),
-        nk=np.array([p["nk"] for p in parts], dtype=np.int64),
-        s=st("s", (m_max,), complex), bm=st("bm", (m_max, n_w), complex),
-        lamr=lam.real, lami=lam.imag, g0r=g0.real, g0i=g0.imag, g1r=g1.real, g1i=g1.imag,
-        cm=cm, cmr=cm.real, cmi=cm.imag, recr=rec.real, reci=rec.imag, tomr=tom.real,
-        tomi=tom.imag, T=st("T", (k_max, k_max)), Bk=st("Bk", (k_max, n_w)),
-        ad=st("ad", (k_max, k_max)), bd0=st("bd0", (k_max, n_w)),
-        bd1=st("bd1", (k_max, n_w)), ck=st("ck", (n_rows, k_max)),
+        dims=st("dims", (4,), np.int64), smax=np.array([p["smax"] for p in parts]),
+        s2=st("s2", (2, m_max)), lam=st("lam", (2, m_max)), g=st("g", (4, n_w, m_max)),
+        bm=st("bm", (2, n_w, m_max)), crow=st("crow", (6, n_rows, m_max)),
+        rec=st("rec", (2, n, m_max)), tom=st("tom", (2, n, m_max)),
+        tab=st("tab", (n_tab, 6, m_max)), tblk=st("tblk", (k_max, k_max)),
+        bblk=st("bblk", (k_max, n_w)), ad=st("ad", (k_max, k_max)),
+        bd=st("bd", (2, k_max, n_w)), ckr=st("ckr", (3, n_rows, k_max)),
         recb=st("recb", (n, k_max)), tob=st("tob", (k_max, n)),
-        dr=st("dr", (n_rows, n_w)), hx=st("hx", (n_nl, n)), hw=st("hw", (n_nl, n_w)),
-        sens=st("sens", (n_rows, n_nl)), smax=np.array([p["smax"] for p in parts]),
+        etab=st("etab", (n_tab, 3, k_tab, k_tab)), dw=st("dw", (3, n_rows, n_w)),
+        hx=st("hx", (n_nl, n)), hw=st("hw", (n_nl, n_w)), sens=st("sens", (n_rows, n_nl)),
         act=_stack_rows([p["act"] for p in parts], n_rows - 1),
         nact=np.array([p["act"].size for p in parts], dtype=np.int64),
+        dact=_stack_rows([p["dact"] for p in parts], n_rows - 1),
+        ndact=np.array([p["dact"].size for p in parts], dtype=np.int64),
         kind=kind, par=par, fbit=fbit, cd=cd, cv=cv,
     )
     # one compiled signature: C-contiguous writeable float64/complex128/int64 arrays
     arrays = {k: np.require(v, requirements=["C", "W"]) for k, v in arrays.items()}
+    arrays["n_grid"] = n_grid
     return NonlinearSystem(
         dt=dt, n_states=n, n_inputs=n_in, n_outputs=n_out, elements=els,
         paths=tuple(p["path"] for p in parts), conds=tuple(float(p["cond"]) for p in parts),
