@@ -71,7 +71,7 @@ def eig_case():
 
 def help_case():
     t = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "truthbench.cli", "--help"], check=True,
+    subprocess.run([sys.executable, "-m", "truthbench", "--help"], check=True,
                    capture_output=True)
     return time.perf_counter() - t
 

@@ -17,7 +17,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from truthbench.cli_extra import register
+from truthbench.cli import identify, study
+
+
+def register(sub):
+    study.register(sub)
+    identify.register(sub)
 
 SHIPPED_LVM = Path(str(importlib.resources.files("truthbench").joinpath(
     "data/ladisk_beam_impact/acceleration.lvm")))
@@ -40,8 +45,9 @@ def run(argv: list[str]) -> int:
 
 def test_import_is_light_and_help_is_fast():
     code = ("import sys, time; t = time.perf_counter(); import argparse; "
-            "import truthbench.cli_extra as c; p = argparse.ArgumentParser(); "
-            "c.register(p.add_subparsers()); "
+            "import truthbench.cli.study as s, truthbench.cli.identify as i; "
+            "p = argparse.ArgumentParser(); sub = p.add_subparsers(); "
+            "s.register(sub); i.register(sub); "
             "print(time.perf_counter() - t, 'numpy' in sys.modules, 'scipy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()
