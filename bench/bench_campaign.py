@@ -9,7 +9,7 @@ single-threaded inside every trial) and prints:
 * elapsed (wall-clock) time and trials per second for each worker count, and the
   speed-up against 1 worker measured in the same run (the reference);
 * the time split by stage (simulate, frf, identify, bound, update, score), summed over
-  the trials' workers (:attr:`truthbench.campaign.runner.TrialResult.seconds`);
+  the trials' workers (:attr:`truthbench.campaign.results.TrialResult.seconds`);
 * whether the results are identical across worker counts (FRFs, identified modes,
   updated parameters, uncertainty bounds: exact equality, not a tolerance).
 
@@ -24,7 +24,8 @@ import time
 
 import numpy as np
 
-from truthbench.campaign.runner import STAGES, run_campaign
+from truthbench.campaign.results import STAGES
+from truthbench.campaign.runner import run_campaign
 from truthbench.campaign.spec import load_campaign
 
 

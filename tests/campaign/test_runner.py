@@ -58,7 +58,7 @@ def test_output_time_histories_policy(small_dict, keep, kept):
 
 
 def test_stage_seconds_are_recorded(small_dict):
-    from truthbench.campaign.runner import STAGES
+    from truthbench.campaign.results import STAGES
 
     result = run_campaign(parse_campaign(small_dict))
     seconds = result.trials[0].seconds

@@ -26,92 +26,14 @@ from __future__ import annotations
 
 import time
 import traceback
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from truthbench import __version__
+from truthbench.campaign.results import STAGES, CampaignResult, TestRecord, TrialResult
 from truthbench.campaign.spec import CampaignSpec
+from truthbench.measure.frfdata import Channel, FRFData
 from truthbench.plants import Actuator, Sensor
-
-
-@dataclass(frozen=True)
-class TestRecord:
-    """One test's measurement.
-
-    Attributes
-    ----------
-    name : str
-    freq_hz : ndarray, shape (n_freq,)
-    H : ndarray, complex, shape (n_freq, n_out, n_in)
-        Estimated FRF (H1).
-    coherence : ndarray, shape (n_freq, n_out, n_in)
-    u, y : ndarray, shape (n_in, n_samples), (n_out, n_samples)
-        Recorded input and (noisy) output time histories.
-    fs_hz : float
-    parameters : dict
-        The exact truth parameters of the hardware in this test.
-    input_labels, output_labels : tuple of str
-    """
-
-    __test__ = False  # not a pytest test class
-
-    name: str
-    freq_hz: np.ndarray
-    H: np.ndarray
-    coherence: np.ndarray
-    u: np.ndarray
-    y: np.ndarray
-    fs_hz: float
-    parameters: dict
-    input_labels: tuple[str, ...]
-    output_labels: tuple[str, ...]
-    modes: object | None = None
-    """Identified modes (:class:`~truthbench.identify.ModalParameters`), or None."""
-
-
-@dataclass(frozen=True)
-class TrialResult:
-    """One Monte Carlo trial: its tests, the update and the model FRFs before and after.
-
-    ``update`` is None when the campaign does not update; ``error`` holds the message
-    of a failed trial (its tests so far are kept)."""
-
-    trial: int
-    tests: tuple[TestRecord, ...]
-    truth: dict
-    update: object | None = None
-    H_initial: tuple[np.ndarray, ...] = ()
-    H_updated: tuple[np.ndarray, ...] = ()
-    update_mask: tuple[np.ndarray, ...] = ()
-    accuracy: dict = field(default_factory=dict)
-    """``{"initial": ..., "updated": ...}``: modes against the truth
-    (:func:`~truthbench.campaign.metrics.modal_accuracy`)."""
-    error: str | None = None
-    comparison: dict = field(default_factory=dict)
-    """Every updater's result by name (or its error message)."""
-    uncertainty: object | None = None
-    """:class:`~truthbench.campaign.uncertainty_stage.UncertaintyStage`, or None."""
-    seconds: dict = field(default_factory=dict)
-    """Wall-clock seconds per stage (:data:`STAGES`); not part of the results' identity
-    (they vary from run to run)."""
-
-
-@dataclass(frozen=True)
-class CampaignResult:
-    """Everything a campaign run produced, with what made it."""
-
-    spec: CampaignSpec
-    seed: int
-    version: str
-    nominal: dict
-    trials: tuple[TrialResult, ...]
-
-    @property
-    def stage_seconds(self) -> dict:
-        """Wall-clock seconds per stage summed over the trials (worker time, not elapsed
-        time)."""
-        return {k: float(sum(t.seconds.get(k, 0.0) for t in self.trials)) for k in STAGES}
 
 
 def excitation_rng(seed: int, trial: int, test: int) -> np.random.Generator:
@@ -274,10 +196,29 @@ def measure_test(spec: CampaignSpec, j: int, u, y, params: dict, *,
     est = estimate_frf(u, y, test.fs_hz, estimator="H1", window=test.window,
                        n_averages=test.averages)
     acts, sens = _io(spec, j)
-    record = TestRecord(test.name, est.freq_hz, est.H, est.coherence, u, y, test.fs_hz,
-                        dict(params), tuple(a.label for a in acts),
-                        tuple(s.label for s in sens))
+    outputs, inputs = channels(spec, acts, sens)
+    frf = FRFData(test.name, est.freq_hz, est.H, outputs, inputs, coherence=est.coherence,
+                  n_averages=est.n_averages, band_hz=tuple(test.band_hz),
+                  notes=(f"H1, {test.window} window, {est.n_averages} averages of "
+                         f"{est.nperseg} samples at {test.fs_hz:g} Hz",))
+    record = TestRecord(test.name, frf, u, y, test.fs_hz, dict(params))
     return identify_record(spec, j, record) if identify else record
+
+
+def channels(spec: CampaignSpec, actuators, sensors):
+    """The FRF channels of a test's sensors (outputs) and actuators (inputs), at the
+    stations' positions on the nominal beam (x along the beam, m)."""
+    plant = spec.make_plant()
+    x = plant.node_x_m(spec.nominal_parameters())
+
+    def at(station):
+        return (float(x[plant.station_node(station)]), 0.0, 0.0)
+
+    outputs = tuple(Channel(s.label, s.quantity, s.direction, station=s.station,
+                            coordinates_m=at(s.station)) for s in sensors)
+    inputs = tuple(Channel(a.label, "force", a.direction, station=a.station,
+                           coordinates_m=at(a.station)) for a in actuators)
+    return outputs, inputs
 
 
 def identify_record(spec: CampaignSpec, j: int, record: TestRecord) -> TestRecord:
@@ -472,12 +413,6 @@ def simulate_one(spec: CampaignSpec, trial: int, j: int, seed: int | None = None
     setup = build_test_setup(spec, trial, j, seed, extra_effects)
     u, y = simulate_test(spec, j, setup, excitation_rng(seed, trial, j))
     return measure_test(spec, j, u, y, truth_record(setup))
-
-
-STAGES = ("simulate", "frf", "identify", "bound", "update", "score")
-"""Stages timed per trial (:attr:`TrialResult.seconds`): truth simulation, FRF
-estimation, modal identification, the uncertainty model, the updaters, and scoring
-against the truth (model FRFs and modal accuracy)."""
 
 
 class _Stopwatch:

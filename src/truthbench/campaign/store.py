@@ -7,7 +7,7 @@ Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
     /nominal               attrs: parameter -> value
     /trials/0000           attrs: status ("ok" | "failed"), error
         truth              attrs: parameter -> value
-        seconds            attrs: stage -> wall-clock seconds (runner.STAGES)
+        seconds            attrs: stage -> wall-clock seconds (results.STAGES)
         tests/<name>       datasets freq_hz, H, coherence, u, y (u, y empty for trials
                            whose time histories the campaign's [output] does not keep);
                            attrs fs_hz, input_labels, output_labels
@@ -47,7 +47,7 @@ def _attrs(group, mapping):
 
 
 def write_results(result, path: str | Path) -> Path:
-    """Write a :class:`~truthbench.campaign.runner.CampaignResult` to HDF5."""
+    """Write a :class:`~truthbench.campaign.results.CampaignResult` to HDF5."""
     import h5py
 
     path = Path(path)
