@@ -88,12 +88,12 @@ def test_time_path_agrees_with_periodic_steady_state(small_dict):
     allows that ratio up to 2.5 (measured: 0.53 % at 400 Hz, the bound is 1.2 %). The
     periodic path itself equals the model FRF to 1e-14."""
     from truthbench.campaign.runner import excitation_rng, simulate_test
-    from truthbench.campaign.truth import build_test_setup
+    from truthbench.campaign.truth import build_hardware
 
     for t in small_dict["tests"]:
         t.update(oversample=8, record_s=8.0, noise_fraction=0.0)
     spec = parse_campaign(small_dict)
-    setup = build_test_setup(spec, 0, 0, 5)
+    setup = build_hardware(spec, 0, 0, 5)
     u_p, y_p = simulate_test(spec, 0, setup, excitation_rng(5, 0, 0))
     small_dict["tests"][0]["simulation"] = "time"
     spec_t = parse_campaign(small_dict)
@@ -107,11 +107,11 @@ def test_time_path_agrees_with_periodic_steady_state(small_dict):
     band = (hp.freq_hz > 5) & (hp.freq_hz < 400)
     err = np.abs(ht.H[band] - hp.H[band]) / np.abs(hp.H[band]).max(axis=0)
     assert err.max() < 5 * (400 / (8 * fs)) ** 2
-    from truthbench.campaign.runner import _io
-
-    exact = setup.plant.build(setup.parameters, *_io(spec, 0), setup.additions).frf(
+    exact = setup.plant.build(setup.parameters, *spec.test_io(0), setup.additions).frf(
         hp.freq_hz[band])
     assert (np.abs(hp.H[band] - exact) / np.abs(exact).max(axis=0)).max() < 1e-12
+    # the hardware's own exact FRF is the same function
+    np.testing.assert_allclose(setup.frf(hp.freq_hz[band]), exact, rtol=0, atol=0)
 
 
 def test_trial_truth_includes_hardware_effects(small_dict):
@@ -132,7 +132,7 @@ def test_identified_shapes_match_the_truth_with_suspension_modes_in_band(quickst
     suspension modes (whose receptance once dominated the residue fit, MAC 0.84)."""
     from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
     from truthbench.campaign.runner import simulate_one
-    from truthbench.campaign.truth import build_test_setup
+    from truthbench.campaign.truth import build_hardware
     from truthbench.identify import mac
 
     for t in quickstart_dict["tests"]:
@@ -140,7 +140,7 @@ def test_identified_shapes_match_the_truth_with_suspension_modes_in_band(quickst
     spec = parse_campaign(quickstart_dict)
     rec = simulate_one(spec, 0, 0)
     sensors = displacement_sensors(spec.test_sensors(0))
-    setup = build_test_setup(spec, 0, 0, spec.campaign.seed)
+    setup = build_hardware(spec, 0, 0, spec.campaign.seed)
     truth = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors, setup.additions),
                              sensors, (10.0, 400.0), 60)
     assert len(truth.freq_hz) == 3

@@ -5,7 +5,7 @@ import pytest
 
 from truthbench.campaign.runner import excitation_rng, simulate_test
 from truthbench.campaign.spec import parse_campaign
-from truthbench.campaign.truth import build_test_setup
+from truthbench.campaign.truth import build_hardware
 from truthbench.effects import EFFECTS, effect_from_inject, parse_effect
 from truthbench.errors import CampaignError
 from truthbench.measure import estimate_frf
@@ -23,7 +23,7 @@ def _spec(base, effects=(), test_effects=None):
 
 
 def _structure(spec, j=0, trial=0):
-    setup = build_test_setup(spec, trial, j, spec.campaign.seed)
+    setup = build_hardware(spec, trial, j, spec.campaign.seed)
     model = setup.plant.build(setup.parameters, [], [], setup.additions)
     return setup, model
 
@@ -105,8 +105,8 @@ def test_boundary_draws_differ_per_test(base):
     COVERED.add("boundary")
     spec = _spec(base, [{"name": "boundary", "parameters": {
         "stiffness_rel": {"mean": 0.0, "std": 0.2}}}])
-    k0 = build_test_setup(spec, 0, 0, 1).parameters["suspension_stiffness_n_m"]
-    k1 = build_test_setup(spec, 0, 1, 1).parameters["suspension_stiffness_n_m"]
+    k0 = build_hardware(spec, 0, 0, 1).parameters["suspension_stiffness_n_m"]
+    k1 = build_hardware(spec, 0, 1, 1).parameters["suspension_stiffness_n_m"]
     assert k0 != k1  # scope "test" by default
 
 
@@ -186,7 +186,7 @@ def test_sag_couples_axial_and_vertical_and_grows(base):
 
 
 def _record(spec, j=0, seed=7):
-    setup = build_test_setup(spec, 0, j, seed)
+    setup = build_hardware(spec, 0, j, seed)
     return setup, simulate_test(spec, j, setup, excitation_rng(seed, 0, j))
 
 
@@ -269,7 +269,7 @@ def test_scopes(base):
     values = {}
     for scope in ("hardware", "reassembly", "test", "drift"):
         spec = _spec(base, [eff(scope)])
-        values[scope] = [build_test_setup(spec, 0, j, 3).parameters["E_pa"] for j in range(3)]
+        values[scope] = [build_hardware(spec, 0, j, 3).parameters["E_pa"] for j in range(3)]
     h, r, t, d = (values[k] for k in ("hardware", "reassembly", "test", "drift"))
     assert h[0] == h[1] == h[2]
     assert r[0] == r[1] != r[2]  # tests 0 and 1 share assembly 0
@@ -279,13 +279,13 @@ def test_scopes(base):
     assert abs(d[1] - d[0]) < abs(d[2] - d[0])
     # a different trial is different hardware
     spec = _spec(base, [eff("hardware")])
-    assert build_test_setup(spec, 1, 0, 3).parameters["E_pa"] != h[0]
+    assert build_hardware(spec, 1, 0, 3).parameters["E_pa"] != h[0]
 
 
 def test_inject_adds_an_undeclared_effect(base):
     spec = _spec(base)
     extra = effect_from_inject("joint:station=mid,stiffness_loss=0.2,damping_n_m_s_rad=1.5")
-    setup = build_test_setup(spec, 0, 0, 3, extra_effects=[extra])
+    setup = build_hardware(spec, 0, 0, 3, extra_effects=[extra])
     assert setup.effects["joint"]["stiffness_loss"] == 0.2
     assert setup.effects["joint"]["station"] == "mid"
 
@@ -321,8 +321,6 @@ def test_closed_loop_equals_python_control_feedback(hub_base):
     to its hold-image level."""
     import control
 
-    from truthbench.campaign.runner import _io
-
     COVERED.add("closed_loop")
     loop = {"name": "closed_loop", "output": 0, "input": 0,
             "parameters": {"gain": 3.0, "bandwidth_hz": 20.0}}
@@ -331,13 +329,17 @@ def test_closed_loop_equals_python_control_feedback(hub_base):
     fs = spec.tests[0].fs_hz
     est = estimate_frf(u, y, fs, window="rectangular", n_averages=1)
     band = (est.freq_hz > 1) & (est.freq_hz < 60)
-    plant = setup.plant.build(setup.parameters, *_io(spec, 0), setup.additions)
+    plant = setup.plant.build(setup.parameters, *spec.test_io(0), setup.additions)
     ol = plant.state_space()
     cl = control.feedback(ol, setup.loops[0].statespace(ol.noutputs, ol.ninputs))
     r = control.frequency_response(cl, 2 * np.pi * est.freq_hz[band])
     Hc = np.moveaxis(np.asarray(r.complex).reshape(cl.noutputs, cl.ninputs, -1), -1, 0)
     mask = np.abs(Hc) > 1e-6 * np.abs(Hc).max(axis=(0, 2), keepdims=True)
     assert (np.abs(est.H[band] - Hc)[mask] / np.abs(Hc)[mask]).max() < 1e-6
+    # the hardware's exact FRF (Sherman-Morrison closing) is python-control's feedback;
+    # both are exact, so they agree to round-off of the modal sums
+    Hh = setup.frf(est.freq_hz[band])
+    assert (np.abs(Hh - Hc)[mask] / np.abs(Hc)[mask]).max() < 1e-9
     # the loop changes the response: open loop differs
     Ho = plant.frf(est.freq_hz[band])
     assert np.abs(Ho - Hc).max() > 0.1 * np.abs(Hc).max()

@@ -17,7 +17,7 @@ from truthbench.update import (
     SensitivityResult,
     UpdateProblem,
     damping_sensitivities,
-    get_updater,
+    make_updater,
     macroelement_matrices,
     system_matrices,
 )
@@ -221,9 +221,8 @@ def test_hub_damper_alone_through_the_registry_with_build_model():
     truth = {**HUB_NOM, DAMPER: 3.0}
     start = {**truth, DAMPER: 0.7 * 3.0}
     problem = UpdateProblem(names=(DAMPER,), theta0=start, build_model=HUB.build,
-                            measured=[hub_measured(truth, 2)],
-                            options={"sensitivity": {"c_zeta": 0.5}})
-    res = get_updater("sensitivity").update(problem)
+                            measured=[hub_measured(truth, 2)])
+    res = make_updater("sensitivity", {"c_zeta": 0.5}).update(problem)
     assert res.converged and abs(res.values[0] / 3.0 - 1) < 1e-8
     # (M, C, K) builders work too (no modal damping then)
     truth0 = {**truth, "modal_damping_ratio": 0.0}

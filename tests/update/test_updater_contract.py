@@ -10,9 +10,12 @@ from truthbench.plants import Actuator, Sensor, make_plant
 from truthbench.update.finite_difference import UpdateResult
 from truthbench.update.registry import (
     UPDATERS,
+    FiniteDifferenceUpdater,
+    SensitivityUpdater,
     UpdateProblem,
     Updater,
     get_updater,
+    make_updater,
     register_updater,
 )
 from truthbench.update.sensitivity import MeasuredModes
@@ -93,15 +96,34 @@ def test_specific_missing_fields_and_options():
         get_updater("finite_difference").update(only_frf)
     with pytest.raises(ValueError, match=r"'sensitivity' needs \['build_mk', 'measured'\]"):
         get_updater("sensitivity").update(only_frf)
-    # options are routed per updater
-    opt = UpdateProblem(names=NAMES, theta0=THETA0, build_mk=build_mk,
-                        measured=PROBLEM.measured, options={"sensitivity": {"max_iterations": 1}})
+    # settings live in the updater object, read from a campaign's [update] mapping
+    modal = UpdateProblem(names=NAMES, theta0=THETA0, build_mk=build_mk,
+                          measured=PROBLEM.measured)
+    one = make_updater("sensitivity", {"max_iterations": 1, "relative_step": 1e-3})
+    assert one.max_iterations == 1 and one == SensitivityUpdater(max_iterations=1)
     with pytest.warns(UserWarning, match="did not converge in 1 iterations"):
-        assert not get_updater("sensitivity").update(opt).converged
-    with pytest.raises(ValueError, match="'options' maps an updater name"):
-        UpdateProblem(names=NAMES, theta0=THETA0, options={"sensitivity": 3})
+        assert not one.update(modal).converged
+    with pytest.raises(ValueError, match="'scheme' must be one of 'central', 'forward'; "
+                                         "got 'backward'"):
+        make_updater("finite_difference", {"scheme": "backward"})
+    with pytest.raises(ValueError, match="'max_iterations' must be an integer >= 1; got 0"):
+        FiniteDifferenceUpdater(max_iterations=0)
     with pytest.raises(ValueError, match="'names' is empty"):
         UpdateProblem(names=(), theta0=THETA0)
+
+
+@pytest.mark.parametrize("name", sorted(UPDATERS))
+def test_declared_needs_and_supported_parameters(name):
+    """Every updater declares the inputs it reads (and fails naming them when they are
+    absent) and refuses, with a reason, the parameter kinds it cannot update."""
+    updater = get_updater(name)
+    assert updater.needs and updater.needs <= {"frf", "modes"}
+    problem = UpdateProblem(names=NAMES, theta0=THETA0)
+    assert problem.missing(sorted(updater.needs))
+    refused = updater.unsupported({"E_pa": "plant", "delay_s": "appended",
+                                   "joint.stiffness_loss": "effect"})
+    assert "E_pa" not in refused
+    assert all(isinstance(why, str) and why for why in refused.values())
 
 
 def test_registry():
@@ -111,6 +133,6 @@ def test_registry():
                              r"'sensitivity'"):
         get_updater("kalman")
     with pytest.raises(ValueError, match="already registered"):
-        register_updater(get_updater("sensitivity"))
+        register_updater(SensitivityUpdater)
     with pytest.raises(TypeError):
         UPDATERS["x"] = None  # read-only view

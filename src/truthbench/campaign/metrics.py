@@ -47,7 +47,7 @@ def analysis_band(spec) -> tuple[float, float]:
 
 def modal_accuracy(spec, setup, params: dict, *, n_modes: int = 30) -> dict:
     """Frequency, damping and MAC errors of the model at ``params`` against the truth
-    ``setup`` (:class:`~truthbench.effects.TestSetup`), over the update band.
+    ``setup`` (:class:`~truthbench.effects.Hardware`), over the update band.
 
     Returns
     -------

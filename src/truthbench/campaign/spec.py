@@ -121,6 +121,8 @@ class UpdateSpec(_Strict):
     c_zeta: NonNegFloat = 1.0
     """Sensitivity localization: weight of the damping-ratio rows (used when a damping
     parameter is updated; identified damping is less accurate than frequency)."""
+    mac_min: Annotated[float, Field(ge=0, le=1)] = 0.8
+    """Sensitivity localization: least MAC of a measured-model mode pair."""
 
 
 class UncertaintySpec(_Strict):
@@ -198,6 +200,15 @@ class CampaignSpec(_Strict):
 
     def test_sensors(self, i: int) -> list[SensorSpec]:
         return self.tests[i].sensors if self.tests[i].sensors is not None else self.sensors
+
+    def test_io(self, j: int) -> tuple[tuple, tuple]:
+        """Test ``j``'s actuators and sensors as the plant's
+        :class:`~truthbench.plants.Actuator` and :class:`~truthbench.plants.Sensor`."""
+        from truthbench.plants import Actuator, Sensor
+
+        return (tuple(Actuator(a.station, a.direction) for a in self.tests[j].actuators),
+                tuple(Sensor(s.station, s.direction, s.quantity)
+                      for s in self.test_sensors(j)))
 
     def to_toml_dict(self) -> dict[str, Any]:
         return self.model_dump(mode="json", exclude={"source"}, exclude_none=True)
@@ -285,29 +296,33 @@ def _check_references(spec: CampaignSpec) -> None:
                 plant.station_node(eff.options["station"])
             except ModelError as exc:
                 raise CampaignError(f"{src}: effect {eff.name!r}: {exc}") from None
-    from truthbench.campaign.runner import APPENDED_PARAMETERS
+    from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater
 
-    appended = [k for k in spec.update.parameters if k in APPENDED_PARAMETERS]
     for key in spec.update.parameters:
         if key not in APPENDED_PARAMETERS:
             check_param(key, "update.parameters")
-    if appended and "sensitivity" in spec.update_methods():
-        raise CampaignError(f"{src}: key 'update.parameters': {appended} belong to the "
-                            f"measurement chain, which identified modes do not carry (a delay "
-                            f"does not move the poles, a gain does not change scaled shapes); "
-                            f"update them with 'finite_difference' only")
-    from truthbench.update import UPDATERS
-
+    kinds = {k: ("appended" if k in APPENDED_PARAMETERS else "plant")
+             for k in spec.update.parameters}
     for m in spec.update_methods():
         if m not in UPDATERS:
             raise CampaignError(f"{src}: key 'update.method': unknown updater {m!r}; expected "
                                 f"one of {', '.join(sorted(UPDATERS))} or 'none'")
+        try:
+            updater = make_updater(m, spec.update.model_dump())
+        except ValueError as exc:
+            raise CampaignError(f"{src}: key 'update': {exc}") from None
+        refused = updater.unsupported(kinds)
+        if refused:
+            reasons = "; ".join(f"{k}: {why}" for k, why in refused.items())
+            raise CampaignError(f"{src}: key 'update.parameters': updater {m!r} cannot "
+                                f"update {sorted(refused)} ({reasons}); update them with "
+                                f"an FRF method such as 'finite_difference'")
+        if "modes" in updater.needs and not spec.identify.enabled:
+            raise CampaignError(f"{src}: key 'identify.enabled': updater {m!r} needs "
+                                f"identified modes; expected true, got false")
     if spec.update_methods() and not spec.update.parameters:
         raise CampaignError(f"{src}: key 'update.parameters': expected at least one parameter "
                             f"for method {spec.update.method!r}; got an empty list")
-    if "sensitivity" in spec.update_methods() and not spec.identify.enabled:
-        raise CampaignError(f"{src}: key 'identify.enabled': the sensitivity method needs "
-                            f"identified modes; expected true, got false")
 
     def check_station(station: str, where: str):
         try:
@@ -344,7 +359,7 @@ def _check_references(spec: CampaignSpec) -> None:
             raise CampaignError(f"{src}: key 'tests[{j}].averages': {t.averages} averages of a "
                                 f"{n}-sample record leave fewer than 16 samples per segment")
     # m r > p (METHOD 5.1): SISO pairs over all tests against updated parameters
-    if "finite_difference" in spec.update_methods():
+    if any("frf" in UPDATERS[m].needs for m in spec.update_methods()):
         pairs = sum(len(t.actuators) * len(spec.test_sensors(j)) for j, t in
                     enumerate(spec.tests))
         p = len(spec.update.parameters)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from truthbench.effects import SetupBuilder, TestSetup, draw
+from truthbench.effects import Hardware, SetupBuilder, draw
 
 
 def _rng(seed: int, *key: int) -> np.random.Generator:
@@ -58,21 +58,21 @@ def _values(spec, eff, k: int, seed: int, trial: int, j: int) -> dict[str, float
     return _drift(spec, eff, k, seed, trial, test.time_h)
 
 
-def build_test_setup(spec, trial: int, j: int, seed: int, extra_effects=()) -> TestSetup:
-    """The realised truth of test ``j`` in trial ``trial``.
+def build_hardware(spec, trial: int, j: int, seed: int, extra_effects=()) -> Hardware:
+    """The realised truth of test ``j`` in trial ``trial``, instrumented with the test's
+    actuators and sensors.
 
     ``extra_effects`` (:class:`~truthbench.effects.EffectSpec`) are added after the
     campaign's own effects, with streams of their own: this is how data with an
     undeclared effect are made (``truthbench simulate --inject``).
     """
+    actuators, sensors = spec.test_io(j)
     builder = SetupBuilder(plant=spec.make_plant(), parameters=spec.truth_parameters(),
-                           sensor_stations=tuple(s.station for s in spec.test_sensors(j)))
+                           actuators=actuators, sensors=sensors)
     entries = [(k, e) for k, e in enumerate(spec.truth_effects())]
     entries += [(1000 + 100 * j + n, e) for n, e in enumerate(spec.test_effects(j))]
     entries += [(100000 + n, e) for n, e in enumerate(extra_effects)]
     for k, eff in entries:
-        values = _values(spec, eff, k, seed, trial, j)
-        eff.effect.contribute(values, eff.options, builder)
         label = eff.name if eff.name not in builder.effects else f"{eff.name}#{k}"
-        builder.effects[label] = {"scope": eff.scope, **eff.options, **values}
+        builder.add(eff, _values(spec, eff, k, seed, trial, j), label)
     return builder.freeze()

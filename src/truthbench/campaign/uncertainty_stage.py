@@ -103,7 +103,7 @@ def uncertainty_stage(spec, trial: int, seed: int, records, params0: dict):
     """The uncertainty model of one trial's tests, or None when fewer than two tests
     identified a common mode (nothing to bound)."""
     from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
-    from truthbench.campaign.truth import build_test_setup
+    from truthbench.campaign.truth import build_hardware
     from truthbench.identify import ModalParameters
     from truthbench.uncertainty import uncertainty_model
 
@@ -120,7 +120,7 @@ def uncertainty_stage(spec, trial: int, seed: int, records, params0: dict):
             return None
         ident = ModalParameters(ident.freq_hz, ident.damping_ratio, ident.shapes)
         k = _pair(model, ident)
-        setup = build_test_setup(spec, trial, j, seed)
+        setup = build_hardware(spec, trial, j, seed)
         truth = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors,
                                                    setup.additions), sensors, band, 60)
         kt = _pair(model, truth)

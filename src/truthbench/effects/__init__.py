@@ -1,7 +1,9 @@
-"""The truth simulator's uncertainty table (Table 10.1): effects, scopes, registry.
+"""The truth simulator's uncertainty table (Table 10.1): effects, scopes, registry, and
+the :class:`Hardware` they realise (exact FRFs and time histories).
 
-See :mod:`truthbench.effects.base` for the protocol and the scopes. Importing this
-package registers every effect.
+See :mod:`truthbench.effects.base` for the protocol and the scopes,
+:mod:`truthbench.effects.hardware` for the hardware. Importing this package registers
+every effect.
 """
 
 from truthbench.effects import appended, loop, measurement, nonlinear, structural  # noqa: F401
@@ -15,11 +17,13 @@ from truthbench.effects.base import (
     EffectSpec,
     draw,
     effect_from_inject,
+    mean_values,
     parse_effect,
     register_effect,
 )
-from truthbench.effects.setup import Filter, SetupBuilder, TestSetup
+from truthbench.effects.hardware import Filter, Hardware
+from truthbench.effects.setup import SetupBuilder, realise
 
 __all__ = ["EFFECTS", "SCOPES", "TARGETS", "Distribution", "Effect", "EffectParam",
-           "EffectSpec", "Filter", "SetupBuilder", "TestSetup", "draw", "effect_from_inject",
-           "parse_effect", "register_effect"]
+           "EffectSpec", "Filter", "Hardware", "SetupBuilder", "draw", "effect_from_inject",
+           "mean_values", "parse_effect", "realise", "register_effect"]

@@ -11,7 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from truthbench.effects.base import Effect, EffectParam, register_effect
-from truthbench.effects.setup import Filter
+from truthbench.effects.hardware import Filter
 
 
 def _first_order_low_pass(bandwidth_hz: float) -> Filter:

@@ -67,6 +67,9 @@ class Effect:
     params: ClassVar[tuple[EffectParam, ...]] = ()
     options: ClassVar[dict[str, object]] = {}
     description: ClassVar[str] = ""
+    per_test_channels: ClassVar[bool] = False
+    """True when the effect depends on the test's own actuators or sensors (sensor mass,
+    a loop between channels): a model with it is realised test by test."""
 
     def contribute(self, values: Mapping[str, float], options: Mapping[str, object],
                    setup) -> None:  # pragma: no cover - abstract
@@ -182,6 +185,11 @@ def effect_from_inject(text: str) -> EffectSpec:
         entry.update(opts)
     entry["parameters"] = params
     return parse_effect(entry, "inject", "--inject")
+
+
+def mean_values(spec: EffectSpec) -> dict[str, float]:
+    """Every parameter of the effect at its mean (the hardware's bias, no variance)."""
+    return {p.name: float(spec.distributions[p.name].mean) for p in spec.effect.params}
 
 
 def draw(spec: EffectSpec, rng: np.random.Generator) -> dict[str, float]:

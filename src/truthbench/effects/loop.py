@@ -73,6 +73,7 @@ class ClosedLoop(Effect):
                         EffectParam("bandwidth_hz", 0.0, "first-order roll-off, Hz (0: a "
                                     "static gain)", 0.0))
     options: ClassVar = {"output": 0, "input": 0}
+    per_test_channels: ClassVar[bool] = True
 
     def contribute(self, values, options, setup):
         out, inp = int(options["output"]), int(options["input"])

@@ -2,9 +2,10 @@
 and strong (Coulomb friction with stick-slip, dead band), each grounded at one DOF of a
 station (the hub bearing is ``station = "hub"``, ``direction = "rz"``).
 
-A test with a nonlinear effect is simulated in the time domain
-(:func:`truthbench.simulate.nonlinear.simulate_nonlinear`), whatever its
-``simulation`` key says: the periodic steady state is exact only for a linear truth.
+Each effect contributes a law of :mod:`truthbench.simulate.nonlinear` (the engine owns
+the laws; an effect only chooses one and places it). Hardware with a nonlinear effect is
+simulated in the time domain (:meth:`truthbench.effects.Hardware.simulate`), whatever
+the method asked for: the periodic steady state is exact only for a linear truth.
 """
 
 from __future__ import annotations
@@ -12,6 +13,12 @@ from __future__ import annotations
 from typing import ClassVar
 
 from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.simulate.nonlinear import (
+    AmplitudeDependentDamping,
+    CoulombFriction,
+    CubicStiffness,
+    DeadBand,
+)
 
 
 class _Grounded(Effect):
@@ -36,8 +43,6 @@ class CoulombFrictionEffect(_Grounded):
                                     0.0),)
 
     def law(self, values):
-        from truthbench.simulate.nonlinear import CoulombFriction
-
         return CoulombFriction(values["force_n"])
 
 
@@ -48,8 +53,6 @@ class CubicStiffnessEffect(_Grounded):
     params: ClassVar = (EffectParam("k3_n_m3", 0.0, "cubic stiffness, N/m^3"),)
 
     def law(self, values):
-        from truthbench.simulate.nonlinear import CubicStiffness
-
         return CubicStiffness(values["k3_n_m3"])
 
 
@@ -62,8 +65,6 @@ class DeadBandEffect(_Grounded):
                         EffectParam("stiffness_n_m", 0.0, "contact stiffness, N/m", 0.0))
 
     def law(self, values):
-        from truthbench.simulate.nonlinear import DeadBand
-
         return DeadBand(values["gap_m"], values["stiffness_n_m"])
 
 
@@ -75,6 +76,4 @@ class AmplitudeDampingEffect(_Grounded):
     params: ClassVar = (EffectParam("c2_n_s2_m2", 0.0, "coefficient, N s^2/m^2", 0.0),)
 
     def law(self, values):
-        from truthbench.simulate.nonlinear import AmplitudeDependentDamping
-
         return AmplitudeDependentDamping(values["c2_n_s2_m2"])

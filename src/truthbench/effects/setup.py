@@ -1,73 +1,21 @@
-"""The realised truth of one test: what every effect changed, collected then frozen.
+"""Realising effects: what every effect changed, collected then frozen into hardware.
 
-A :class:`SetupBuilder` starts from the plant and the hardware's parameters; each effect
-adds its change (``contribute``); :meth:`SetupBuilder.freeze` returns the immutable
-:class:`TestSetup` that the simulator runs and the results store records.
+A :class:`SetupBuilder` starts from the plant, the hardware's parameters and the test's
+instrumentation; each effect adds its change (``Effect.contribute``);
+:meth:`SetupBuilder.freeze` returns the immutable
+:class:`~truthbench.effects.hardware.Hardware` that the simulator runs and the results
+store records. :func:`realise` does it in one call for effects at chosen values.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from truthbench.plants.base import Plant, StructuralAdditions
-
-
-@dataclass(frozen=True)
-class Filter:
-    """A continuous transfer function ``num(s) / den(s)`` (coefficients, highest power
-    first) applied to one input (actuator dynamics) or output (sensor dynamics); index
-    None applies it to all."""
-
-    num: tuple[float, ...]
-    den: tuple[float, ...]
-    index: int | None = None
-
-
-@dataclass(frozen=True)
-class TestSetup:
-    """Everything the simulator needs for one test of one piece of hardware.
-
-    Attributes
-    ----------
-    plant : Plant
-        The truth plant (its mesh and element physics may differ from the model's).
-    parameters : dict
-        Plant parameters of the hardware in this test.
-    additions : StructuralAdditions
-        Joints, lumped masses and dashpots, element stiffness loss, sag angles.
-    input_filters, output_filters : tuple of Filter
-        Actuator and sensor dynamics.
-    delay_s : float
-        Time delay between the recorded input and the recorded outputs, s.
-    noise_fraction : float
-        Sensor noise standard deviation over the signal's, per channel.
-    bias_offset, bias_gain : float
-        Recorded output = gain * output + offset (offset in the output's unit).
-    disturbances : tuple of (station, direction, rms)
-        Unmeasured band-limited random forces (process noise), N or N m RMS.
-    nonlinear : tuple
-        Nonlinear elements (station, direction, element).
-    loops : tuple of Loop
-        Feedback loops closed around the plant (:mod:`truthbench.effects.loop`).
-    effects : dict
-        Realised parameter values of every effect, by effect label.
-    """
-
-    __test__ = False  # not a pytest test class
-
-    plant: Plant
-    parameters: dict
-    additions: StructuralAdditions = StructuralAdditions()
-    input_filters: tuple[Filter, ...] = ()
-    output_filters: tuple[Filter, ...] = ()
-    delay_s: float = 0.0
-    noise_fraction: float = 0.0
-    bias_offset: float = 0.0
-    bias_gain: float = 1.0
-    disturbances: tuple[tuple[str, str, float], ...] = ()
-    nonlinear: tuple = ()
-    loops: tuple = ()
-    effects: dict = field(default_factory=dict)
+from truthbench.effects.base import EffectSpec, mean_values
+from truthbench.effects.hardware import Hardware
+from truthbench.effects.structural import sag_angles
+from truthbench.plants.base import Actuator, Plant, Sensor, StructuralAdditions
 
 
 @dataclass
@@ -76,7 +24,8 @@ class SetupBuilder:
 
     plant: Plant
     parameters: dict
-    sensor_stations: tuple[str, ...] = ()
+    actuators: tuple[Actuator, ...] = ()
+    sensors: tuple[Sensor, ...] = ()
     links: list = field(default_factory=list)
     element_scale: list = field(default_factory=list)
     sag_scale: float = 0.0
@@ -92,24 +41,67 @@ class SetupBuilder:
     loops: list = field(default_factory=list)
     effects: dict = field(default_factory=dict)
 
+    @property
+    def sensor_stations(self) -> tuple[str, ...]:
+        """Stations carrying a sensor, in the sensors' order (repeats kept)."""
+        return tuple(s.station for s in self.sensors)
+
     def scale_parameter(self, name: str, factor: float) -> None:
         """Multiply a plant parameter (group-qualified names fall back to the plain one)."""
         base = name.split("@")[0]
         self.parameters[name] = self.parameters.get(name, self.parameters[base]) * factor
 
-    def freeze(self) -> TestSetup:
+    def add(self, spec: EffectSpec, values: Mapping[str, float] | None = None,
+            label: str | None = None) -> None:
+        """Let one effect contribute with ``values`` (default its means) and record them
+        under ``label`` (default the effect's name, or ``name#k`` when taken)."""
+        values = mean_values(spec) if values is None else dict(values)
+        spec.effect.contribute(values, spec.options, self)
+        if label is None:
+            label = spec.name if spec.name not in self.effects else \
+                f"{spec.name}#{len(self.effects)}"
+        self.effects[label] = {"scope": spec.scope, **spec.options, **values}
+
+    def freeze(self) -> Hardware:
         additions = StructuralAdditions(tuple(self.links), tuple(self.element_scale))
         if self.sag_scale:
-            from truthbench.effects.structural import sag_angles
-
             angles = sag_angles(self.plant, self.parameters, additions,
                                 self.gravity_m_s2 * self.sag_scale)
             additions = StructuralAdditions(additions.links, additions.element_stiffness_scale,
                                             angles)
-        return TestSetup(
-            plant=self.plant, parameters=dict(self.parameters), additions=additions,
+        return Hardware(
+            plant=self.plant, parameters=dict(self.parameters), actuators=self.actuators,
+            sensors=self.sensors, additions=additions,
             input_filters=tuple(self.input_filters), output_filters=tuple(self.output_filters),
             delay_s=self.delay_s, noise_fraction=self.noise_fraction,
             bias_offset=self.bias_offset, bias_gain=self.bias_gain,
             disturbances=tuple(self.disturbances), nonlinear=tuple(self.nonlinear),
             loops=tuple(self.loops), effects=dict(self.effects))
+
+
+def realise(plant: Plant, parameters: Mapping[str, float], effects=(), *,
+            actuators: Sequence[Actuator] = (), sensors: Sequence[Sensor] = ()
+            ) -> Hardware:
+    """The hardware of ``plant`` at ``parameters`` with ``effects`` at chosen values.
+
+    Parameters
+    ----------
+    plant : Plant
+    parameters : mapping
+        Plant parameters (resolved against the plant's defaults and checked).
+    effects : sequence
+        Each an :class:`~truthbench.effects.EffectSpec` (at its mean values) or a pair
+        ``(EffectSpec, values)``; they contribute in order.
+    actuators, sensors : sequence of Actuator, Sensor
+        The instrumentation.
+
+    Returns
+    -------
+    Hardware
+    """
+    builder = SetupBuilder(plant=plant, parameters=plant.resolve(parameters),
+                           actuators=tuple(actuators), sensors=tuple(sensors))
+    for entry in effects:
+        spec, values = entry if isinstance(entry, tuple) else (entry, None)
+        builder.add(spec, values)
+    return builder.freeze()

@@ -161,6 +161,7 @@ class AddedMass(Effect):
 class SensorMass(Effect):
     name: ClassVar[str] = "sensor_mass"
     description: ClassVar[str] = "accelerometer mass loading at every sensor station"
+    per_test_channels: ClassVar[bool] = True
     params: ClassVar = (EffectParam("mass_kg", 0.0, "mass of one accelerometer, kg", 0.0),)
     options: ClassVar = {}
 

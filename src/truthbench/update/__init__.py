@@ -1,17 +1,24 @@
-"""Model updating: the finite-difference FRF method, sensitivity localization, and the
-registry of interchangeable updaters."""
+"""Model updating: the FRF predictor, the finite-difference FRF method, sensitivity
+localization, the one identifiability check, and the registry of updaters configured as
+objects."""
 
 from truthbench.update.finite_difference import (
     UpdateResult,
-    check_overdetermined,
     finite_difference_update,
     sensitivity_matrix,
 )
+from truthbench.update.identifiability import check_identifiable, check_overdetermined
 from truthbench.update.macroelements import (
     Macroelement,
     SystemMatrices,
     macroelement_matrices,
     system_matrices,
+)
+from truthbench.update.predictor import (
+    APPENDED_PARAMETERS,
+    EffectTerm,
+    FRFPredictor,
+    PredictedTest,
 )
 from truthbench.update.registry import (
     UPDATERS,
@@ -20,6 +27,7 @@ from truthbench.update.registry import (
     UpdateProblem,
     Updater,
     get_updater,
+    make_updater,
     register_updater,
 )
 from truthbench.update.sensitivity import (
@@ -31,9 +39,11 @@ from truthbench.update.sensitivity import (
     sensitivity_update,
 )
 
-__all__ = ["UPDATERS", "FiniteDifferenceUpdater", "Macroelement", "MeasuredModes",
-           "ModalPairs", "SensitivityResult", "SensitivityUpdater", "SystemMatrices",
-           "UpdateProblem", "UpdateResult", "Updater", "check_overdetermined",
-           "damping_sensitivities", "eigen_sensitivities", "finite_difference_update",
-           "get_updater", "macroelement_matrices", "register_updater",
-           "sensitivity_matrix", "sensitivity_update", "system_matrices"]
+__all__ = ["APPENDED_PARAMETERS", "UPDATERS", "EffectTerm", "FRFPredictor",
+           "FiniteDifferenceUpdater", "Macroelement", "MeasuredModes", "ModalPairs",
+           "PredictedTest", "SensitivityResult", "SensitivityUpdater", "SystemMatrices",
+           "UpdateProblem", "UpdateResult", "Updater", "check_identifiable",
+           "check_overdetermined", "damping_sensitivities", "eigen_sensitivities",
+           "finite_difference_update", "get_updater", "macroelement_matrices",
+           "make_updater", "register_updater", "sensitivity_matrix", "sensitivity_update",
+           "system_matrices"]

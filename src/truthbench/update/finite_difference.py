@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from truthbench.errors import IdentifiabilityError
+from truthbench.update.identifiability import check_identifiable, check_overdetermined
 
 
 @dataclass(frozen=True)
@@ -71,16 +71,6 @@ class UpdateResult:
 
     def as_dict(self) -> dict[str, float]:
         return dict(zip(self.names, self.values.tolist(), strict=True))
-
-
-def check_overdetermined(n_pairs: int, n_parameters: int, *, context: str = "update") -> None:
-    """Raise unless ``m r > p`` (METHOD 5.1): more SISO transfer functions than
-    parameters."""
-    if n_pairs <= n_parameters:
-        raise IdentifiabilityError(
-            f"{context}: the finite-difference method needs more SISO transfer functions "
-            f"than parameters (m r > p); got m r = {n_pairs} for p = {n_parameters} "
-            f"parameters. Add sensors, actuators or tests, or update fewer parameters.")
 
 
 def _stack(z: np.ndarray) -> np.ndarray:
@@ -151,30 +141,6 @@ def _stepped(value: float, d: float, scale: float | None) -> float:
     """``value`` moved by ``d``: relatively (``value e^d``, log-parameters; ``1 + d`` in
     finite differences is the same to first order) or additively (``value + d scale``)."""
     return value + d * scale if scale is not None else value * (1 + d)
-
-
-def _check_identifiable(names, A, rcond) -> None:
-    """Raise IdentifiabilityError for unseen parameters or inseparable combinations of
-    the (weighted, stacked) sensitivity matrix ``A``."""
-    norms = np.linalg.norm(A, axis=0)
-    dead = [n for n, v in zip(names, norms, strict=True) if not v > 1e-14 * norms.max()]
-    if dead:
-        raise IdentifiabilityError(
-            f"parameters {dead} do not change the model FRFs at the data's frequencies, "
-            f"outputs and inputs; they cannot be updated from these data")
-    _, s, Vt = np.linalg.svd(A / norms, full_matrices=False)
-    if s[-1] > rcond * s[0]:
-        return
-    worst = Vt[-1] / norms
-    worst = worst / np.abs(worst).max()
-    parts = [f"{c:+.2f}*d({n})" for n, c in zip(names, worst, strict=True) if abs(c) > 0.05]
-    hint = (" (METHOD section 2: a change in t_m looks exactly like equal changes in E_pa "
-            "and rho_kg_m3)" if any(n.startswith("t_m") for n in names) else "")
-    raise IdentifiabilityError(
-        f"parameters cannot be separated: with its columns scaled to unit norm the "
-        f"sensitivity matrix has relative singular value {s[-1] / s[0]:.1e}, below "
-        f"{rcond:.0e}; the FRFs do not change along {' '.join(parts)} (relative changes). "
-        f"Drop one of these parameters or add data that separates them{hint}.")
 
 
 def finite_difference_update(
@@ -285,7 +251,8 @@ def finite_difference_update(
                                   scheme=scheme, G0=G, additive=additive)
         A = _stack(S * w_flat[:, None])
         b = _stack((w * (data - G)).ravel())
-        _check_identifiable(names, A, rcond)
+        check_identifiable(names, A, rcond, data="the model FRFs at the data's frequencies, "
+                           "outputs and inputs")
         U, s, Vt = np.linalg.svd(A, full_matrices=False)
         Ub = U.T @ b
         # Steps are in log-parameters (relative changes that keep values positive).

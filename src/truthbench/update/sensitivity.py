@@ -83,6 +83,7 @@ from truthbench.identify.correlation import modal_scale_factor, pair_modes
 from truthbench.identify.modal import ModalParameters
 from truthbench.model import Modes, complex_modes, solve_modes
 from truthbench.update.finite_difference import UpdateResult
+from truthbench.update.identifiability import check_identifiable
 from truthbench.update.macroelements import (
     BuildSystem,
     Macroelement,
@@ -447,15 +448,13 @@ def damping_sensitivities(
 # the update
 # --------------------------------------------------------------------------------------
 def _check_identifiable(names, A, rcond, macros, M, K, damping=None) -> None:
-    """IdentifiabilityError for unseen parameters or an inseparable combination of the
-    column-scaled weighted sensitivity matrix ``A`` (as in finite_difference.py).
-    ``damping``: the ``_State.damping`` bookkeeping (why damping rows are or are not
-    there), to say what a damping parameter lacks."""
-    norms = np.linalg.norm(A, axis=0)
-    top = norms.max() if norms.size else 0.0
-    dead = [k for k, v in enumerate(norms) if not v > 1e-12 * top]
-    if dead:
-        damping = damping or {}
+    """:func:`~truthbench.update.identifiability.check_identifiable` on the column-scaled
+    weighted modal sensitivity matrix ``A``, saying what a damping parameter lacks
+    (``damping``: the ``_State.damping`` bookkeeping) and whether a null direction scales
+    M and K together."""
+    damping = damping or {}
+
+    def explain_dead(dead):
         only_damping = [k for k in dead if macros[k].kind in ("damping", "modal_damping")]
         parts = []
         if only_damping:
@@ -487,48 +486,33 @@ def _check_identifiable(names, A, rcond, macros, M, K, damping=None) -> None:
                 f"eigenvalues, mode shapes at the measured DOFs or damping ratios (zero "
                 f"sensitivity columns); they cannot be updated from these modal data. "
                 f"Measure modes or DOFs where they act, or drop them.{hint}")
-        raise IdentifiabilityError(" ".join(parts))
-    if A.shape[0] < A.shape[1]:
-        raise IdentifiabilityError(
-            f"sensitivity localization needs at least as many weighted equations as "
-            f"parameters; got {A.shape[0]} rows (paired eigenvalues, measured shape "
-            f"entries and damping ratios) for p = {A.shape[1]} parameters {list(names)}. "
-            f"Measure more modes or DOFs, or update fewer parameters.")
-    _, s, Vt = np.linalg.svd(A / norms, full_matrices=False)
-    if s[-1] > rcond * s[0]:
-        return
-    v = Vt[-1] / norms
-    v = v / np.abs(v).max()
-    parts = [f"{c:+.2f}*d({n})" for n, c in zip(names, v, strict=True) if abs(c) > 0.05]
-    # is the null direction a uniform scaling of M and K (E and rho together)?
-    dK = sp.csr_matrix(K.shape)
-    dM = sp.csr_matrix(M.shape)
-    for c, me in zip(v, macros, strict=True):
-        dK = dK + c * me.dK
-        dM = dM + c * me.dM
-    hint = ""
-    fro = spla.norm
-    if fro(K) > 0 and fro(M) > 0:
-        cK = (dK.multiply(K)).sum() / fro(K) ** 2
-        cM = (dM.multiply(M)).sum() / fro(M) ** 2
-        rK = fro(dK - cK * K) / max(fro(dK), 1e-300)
-        rM = fro(dM - cM * M) / max(fro(dM), 1e-300)
-        if abs(cK) > 0 and rK < 1e-3 and rM < 1e-3 and abs(cK - cM) < 1e-3 * abs(cK):
-            hint = (" This combination scales M and K together (e.g. every E and every rho "
-                    "by the same factor): no eigenvalue changes, and after modal-scale-factor "
-                    "scaling no mode shape either. Fix one of these parameters (a reference "
-                    "group) or supply mass-normalised measured shapes (a collocated driving "
-                    "point, METHOD 5.2 item 4) with scale_shapes=False.")
-    if not hint and any(n.startswith("t_m") for n in names):
-        hint = (" (METHOD section 2: a change in t_m looks exactly like equal changes in "
-                "E_pa and rho_kg_m3)")
-    raise IdentifiabilityError(
-        f"parameters cannot be separated: with its columns scaled to unit norm the "
-        f"weighted modal sensitivity matrix has relative singular value {s[-1] / s[0]:.1e}, "
-        f"below rcond = {rcond:.0e}; the paired eigenvalues, mode shapes and damping ratios "
-        f"do not change "
-        f"along {' '.join(parts)} (relative changes). Drop one of these parameters or add "
-        f"data that separates them.{hint}")
+        return " ".join(parts)
+
+    def scales_m_and_k(v):
+        """Is the null direction a uniform scaling of M and K (E and rho together)?"""
+        dK = sp.csr_matrix(K.shape)
+        dM = sp.csr_matrix(M.shape)
+        for c, me in zip(v, macros, strict=True):
+            dK = dK + c * me.dK
+            dM = dM + c * me.dM
+        fro = spla.norm
+        if fro(K) > 0 and fro(M) > 0:
+            cK = (dK.multiply(K)).sum() / fro(K) ** 2
+            cM = (dM.multiply(M)).sum() / fro(M) ** 2
+            rK = fro(dK - cK * K) / max(fro(dK), 1e-300)
+            rM = fro(dM - cM * M) / max(fro(dM), 1e-300)
+            if abs(cK) > 0 and rK < 1e-3 and rM < 1e-3 and abs(cK - cM) < 1e-3 * abs(cK):
+                return (" This combination scales M and K together (e.g. every E and every "
+                        "rho by the same factor): no eigenvalue changes, and after "
+                        "modal-scale-factor scaling no mode shape either. Fix one of these "
+                        "parameters (a reference group) or supply mass-normalised measured "
+                        "shapes (a collocated driving point, METHOD 5.2 item 4) with "
+                        "scale_shapes=False")
+        return ""
+
+    check_identifiable(names, A, rcond, dead_tol=1e-12, explain_dead=explain_dead,
+                       hint=scales_m_and_k,
+                       data="the paired eigenvalues, mode shapes and damping ratios")
 
 
 def _as_measured(measured) -> tuple[MeasuredModes, ...]:

@@ -1,0 +1,225 @@
+"""FRF prediction for updating: a model builder, channels and lines, appended dynamics.
+
+An :class:`FRFPredictor` turns a parameter set ``theta`` into model FRFs at the measured
+lines of each test: it realises the plant at ``theta``'s plant parameters with the
+declared effects at ``theta``'s effect parameters (:class:`EffectTerm`), instruments it
+with every test's actuators and sensors, and multiplies in the appended dynamics
+(:data:`APPENDED_PARAMETERS`). It declares the parameters it can vary and of which kind
+each is, so updaters can say which they support.
+
+Parameter names:
+
+``E_pa``, ``rho_kg_m3@g2``, ...
+    plant parameters (kind ``"plant"``);
+``delay_s``, ``sensor_gain``
+    appended dynamics (kind ``"appended"``): every model FRF is multiplied by
+    ``sensor_gain exp(-j omega delay_s)``, what the ``time_delay`` and ``sensor_bias``
+    (gain) effects do to data;
+``<label>.<parameter>``
+    a parameter of an effect term (kind ``"effect"``), e.g.
+    ``joint@mid.stiffness_loss``.
+
+One structural solution per parameter set serves every test: the model carries the
+union of the tests' channels and each test takes its rows and columns (unless an effect
+depends on the test's own channels, e.g. sensor mass or a closed loop: then each test is
+realised on its own).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from truthbench._validation import readonly
+from truthbench.effects.base import EffectSpec, mean_values
+from truthbench.effects.hardware import Hardware
+from truthbench.effects.setup import SetupBuilder
+from truthbench.errors import ModelError
+from truthbench.plants.base import Actuator, Plant, Sensor
+
+APPENDED_PARAMETERS = {"delay_s": 0.0, "sensor_gain": 1.0}
+"""Update parameters of the measurement chain, not of the plant, with their nominal
+values."""
+
+KINDS = ("plant", "appended", "effect")
+
+
+@dataclass(frozen=True)
+class PredictedTest:
+    """The lines and channels of one test to predict.
+
+    Parameters
+    ----------
+    name : str
+    freq_hz : array_like, shape (n_lines,)
+        Hz.
+    actuators : sequence of Actuator
+    sensors : sequence of Sensor
+    """
+
+    name: str
+    freq_hz: np.ndarray
+    actuators: tuple[Actuator, ...]
+    sensors: tuple[Sensor, ...]
+
+    def __post_init__(self):
+        object.__setattr__(self, "freq_hz", readonly(self.freq_hz, float))
+        object.__setattr__(self, "actuators", tuple(self.actuators))
+        object.__setattr__(self, "sensors", tuple(self.sensors))
+        if self.freq_hz.ndim != 1:
+            raise ValueError(f"test {self.name!r}: freq_hz must be 1-D; got shape "
+                             f"{self.freq_hz.shape}")
+
+    @property
+    def n_pairs(self) -> int:
+        """SISO transfer functions of the test (m r)."""
+        return len(self.actuators) * len(self.sensors)
+
+
+@dataclass(frozen=True)
+class EffectTerm:
+    """An effect in the model whose parameters an update may vary.
+
+    ``theta`` carries its parameters as ``f"{label}.{name}"``; absent ones stay at the
+    effect's mean values.
+    """
+
+    label: str
+    spec: EffectSpec
+
+    def keys(self) -> tuple[str, ...]:
+        return tuple(f"{self.label}.{p.name}" for p in self.spec.effect.params)
+
+    def values(self, theta: Mapping[str, float]) -> dict[str, float]:
+        means = mean_values(self.spec)
+        return {k: float(theta.get(f"{self.label}.{k}", v)) for k, v in means.items()}
+
+
+@dataclass(frozen=True)
+class FRFPredictor:
+    """Model FRFs at the measured lines of each test, as a function of ``theta``.
+
+    Parameters
+    ----------
+    plant : Plant
+        The model's plant builder.
+    nominal : mapping
+        Nominal plant parameters (the defaults of anything ``theta`` leaves out).
+    tests : sequence of PredictedTest
+    effects : sequence of EffectTerm, optional
+        Effects in the model (a joint, a grounded dashpot, ...), in order.
+    """
+
+    plant: Plant
+    nominal: Mapping[str, float]
+    tests: tuple[PredictedTest, ...]
+    effects: tuple[EffectTerm, ...] = field(default_factory=tuple)
+
+    def __post_init__(self):
+        object.__setattr__(self, "nominal", dict(self.plant.resolve(self.nominal)))
+        object.__setattr__(self, "tests", tuple(self.tests))
+        object.__setattr__(self, "effects", tuple(self.effects))
+        if not self.tests:
+            raise ValueError("FRFPredictor needs at least one test")
+        labels = [t.label for t in self.effects]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"effect labels must be unique; got {labels}")
+        acts = list(dict.fromkeys(a for t in self.tests for a in t.actuators))
+        sens = list(dict.fromkeys(s for t in self.tests for s in t.sensors))
+        object.__setattr__(self, "_actuators", tuple(acts))
+        object.__setattr__(self, "_sensors", tuple(sens))
+        object.__setattr__(self, "_per_test", any(
+            t.spec.effect.per_test_channels for t in self.effects))
+
+    # ---- what it can vary ---------------------------------------------------------
+    @property
+    def kinds(self) -> dict[str, str]:
+        """Every parameter the predictor can vary, with its kind (:data:`KINDS`)."""
+        out = dict.fromkeys(self.plant.parameter_names(), "plant")
+        out.update(dict.fromkeys(APPENDED_PARAMETERS, "appended"))
+        for term in self.effects:
+            out.update(dict.fromkeys(term.keys(), "effect"))
+        return out
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return tuple(self.kinds)
+
+    @property
+    def theta0(self) -> dict[str, float]:
+        """Nominal values of every parameter: plant, appended, effects at their means."""
+        out = dict(self.nominal)
+        out.update(APPENDED_PARAMETERS)
+        for term in self.effects:
+            out.update({f"{term.label}.{k}": v for k, v in mean_values(term.spec).items()})
+        return out
+
+    @property
+    def n_pairs(self) -> int:
+        """SISO transfer functions over all tests (m r, summed)."""
+        return sum(t.n_pairs for t in self.tests)
+
+    @property
+    def f_max_hz(self) -> float:
+        """Highest predicted line, Hz."""
+        return max(float(t.freq_hz.max()) for t in self.tests if t.freq_hz.size)
+
+    def additive_scales(self, names: Sequence[str]) -> dict[str, float]:
+        """Parameters among ``names`` that start at 0 and are updated additively, with
+        their scale: the delay, one radian of phase at the highest line."""
+        return ({"delay_s": 1.0 / (2 * np.pi * self.f_max_hz)} if "delay_s" in names
+                else {})
+
+    def check(self, names: Sequence[str]) -> None:
+        """Raise :class:`~truthbench.errors.ModelError` for names it cannot vary."""
+        known = self.kinds
+        bad = [n for n in names if n not in known]
+        if bad:
+            effects = [k for k, v in known.items() if v == "effect"] or "no effect parameters"
+            raise ModelError(f"the FRF predictor cannot vary {bad}; it knows the plant "
+                             f"parameters, {', '.join(APPENDED_PARAMETERS)} and {effects}")
+
+    # ---- predictions --------------------------------------------------------------
+    def plant_parameters(self, theta: Mapping[str, float]) -> dict[str, float]:
+        """The plant parameters of ``theta`` (nominal where it leaves them out)."""
+        names = set(self.plant.parameter_names())
+        return {**self.nominal, **{k: v for k, v in theta.items() if k in names}}
+
+    def hardware(self, theta: Mapping[str, float], actuators: Sequence[Actuator] | None = None,
+                 sensors: Sequence[Sensor] | None = None) -> Hardware:
+        """The model at ``theta`` as hardware, instrumented with ``actuators`` and
+        ``sensors`` (default: the union of the tests')."""
+        builder = SetupBuilder(
+            plant=self.plant, parameters=self.plant.resolve(self.plant_parameters(theta)),
+            actuators=self._actuators if actuators is None else tuple(actuators),
+            sensors=self._sensors if sensors is None else tuple(sensors))
+        for term in self.effects:
+            builder.add(term.spec, term.values(theta), term.label)
+        builder.delay_s += float(theta.get("delay_s", 0.0))
+        builder.bias_gain *= float(theta.get("sensor_gain", 1.0))
+        return builder.freeze()
+
+    def predict(self, theta: Mapping[str, float]) -> tuple[np.ndarray, ...]:
+        """Model FRFs of every test at its lines.
+
+        Returns
+        -------
+        tuple of ndarray, complex, shape (n_lines_j, n_out_j, n_in_j)
+        """
+        if self._per_test:
+            return tuple(self.hardware(theta, t.actuators, t.sensors).frf(t.freq_hz)
+                         for t in self.tests)
+        hw = self.hardware(theta)
+        acts, sens = self._actuators, self._sensors
+        out = []
+        for t in self.tests:
+            rows = [sens.index(s) for s in t.sensors]
+            cols = [acts.index(a) for a in t.actuators]
+            out.append(hw.frf(t.freq_hz)[:, rows][:, :, cols])
+        return tuple(out)
+
+    def predict_vector(self, theta: Mapping[str, float]) -> np.ndarray:
+        """:meth:`predict` of every test, raveled and concatenated (complex, 1-D)."""
+        return np.concatenate([h.ravel() for h in self.predict(theta)])
