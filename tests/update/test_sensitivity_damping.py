@@ -17,8 +17,8 @@ from truthbench.update import (
     SensitivityResult,
     UpdateProblem,
     damping_sensitivities,
-    make_updater,
     macroelement_matrices,
+    make_updater,
     system_matrices,
 )
 from truthbench.update.sensitivity import MeasuredModes, sensitivity_update
