@@ -7,4 +7,6 @@ object), ``simulate``, ``measure``, ``identify``, ``update``, ``campaign`` and
 where they are needed so the command line starts quickly.
 """
 
-__version__ = "0.1.0"
+from truthbench._version import __version__
+
+__all__ = ["__version__"]

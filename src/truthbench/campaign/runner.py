@@ -24,7 +24,7 @@ import numpy as np
 from joblib import Parallel, delayed
 from threadpoolctl import threadpool_limits
 
-from truthbench import __version__
+from truthbench._version import __version__
 from truthbench.campaign.identification import identify_test
 from truthbench.campaign.metrics import modal_accuracy
 from truthbench.campaign.results import STAGES, CampaignResult, TestRecord, TrialResult

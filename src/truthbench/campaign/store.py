@@ -117,7 +117,7 @@ def write_test_record(record, path: str | Path, *, spec, seed: int, trial: int,
     test group of a results file, with the campaign spec and what was injected."""
     import h5py
 
-    from truthbench import __version__
+    from truthbench._version import __version__
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from truthbench import __version__
+from truthbench._version import __version__
 from truthbench.cli import identify, modes, place_sensors, report, run, simulate, study
 
 COMMANDS = (run, report, simulate, identify, study, place_sensors, modes)
