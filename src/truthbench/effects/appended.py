@@ -15,6 +15,7 @@ from truthbench.effects.hardware import Filter
 
 
 def _first_order_low_pass(bandwidth_hz: float) -> Filter:
+    """``w / (s + w)``, ``w = 2 pi bandwidth_hz``."""
     w = 2 * np.pi * bandwidth_hz
     return Filter((w,), (1.0, w))
 
@@ -27,9 +28,11 @@ class ActuatorDynamics(Effect):
                                   "first-order low-pass (a shaker's electrical pole)")
     params: ClassVar = (EffectParam("bandwidth_hz", 1e3, "corner frequency, Hz", 1e-3),)
     options: ClassVar = {}
+    neutral: ClassVar = {"bandwidth_hz": np.inf}
 
     def contribute(self, values, options, setup):
-        setup.input_filters.append(_first_order_low_pass(values["bandwidth_hz"]))
+        if np.isfinite(values["bandwidth_hz"]):  # infinite bandwidth: an ideal actuator
+            setup.input_filters.append(_first_order_low_pass(values["bandwidth_hz"]))
 
 
 @register_effect
@@ -40,8 +43,11 @@ class SensorDynamics(Effect):
                                   "(sensor resonance / anti-alias filter), damping ratio 0.7")
     params: ClassVar = (EffectParam("bandwidth_hz", 2e3, "natural frequency, Hz", 1e-3),)
     options: ClassVar = {}
+    neutral: ClassVar = {"bandwidth_hz": np.inf}
 
     def contribute(self, values, options, setup):
+        if not np.isfinite(values["bandwidth_hz"]):  # infinite bandwidth: an ideal sensor
+            return
         w = 2 * np.pi * values["bandwidth_hz"]
         setup.output_filters.append(Filter((w * w,), (1.0, 1.4 * w, w * w)))
 

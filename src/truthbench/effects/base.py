@@ -70,6 +70,22 @@ class Effect:
     per_test_channels: ClassVar[bool] = False
     """True when the effect depends on the test's own actuators or sensors (sensor mass,
     a loop between channels): a model with it is realised test by test."""
+    neutral: ClassVar[Mapping[str, float] | None] = {}
+    """Parameter values (overriding the defaults) and option values at which the effect
+    changes nothing, e.g. ``{"scale": 0.0}`` for sag; None for an effect that has no
+    neutral setting (element physics is either Timoshenko or not). The shared contract
+    test checks that the hardware with the effect at these values has the nominal
+    FRF."""
+
+    @classmethod
+    def neutral_values(cls) -> tuple[dict[str, float], dict[str, object]] | None:
+        """``(parameter values, option overrides)`` at which the effect does nothing, or
+        None."""
+        if cls.neutral is None:
+            return None
+        values = {p.name: float(cls.neutral.get(p.name, p.default)) for p in cls.params}
+        options = {k: v for k, v in cls.neutral.items() if k in cls.options}
+        return values, options
 
     def contribute(self, values: Mapping[str, float], options: Mapping[str, object],
                    setup) -> None:  # pragma: no cover - abstract

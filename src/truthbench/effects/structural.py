@@ -79,6 +79,7 @@ class Discretization(Effect):
     description: ClassVar[str] = "the truth is meshed finer than the model (h-refinement)"
     params: ClassVar = ()
     options: ClassVar = {"refine": 4}
+    neutral: ClassVar = {"refine": 1}
 
     def contribute(self, values, options, setup):
         k = int(options["refine"])
@@ -93,6 +94,7 @@ class ElementPhysics(Effect):
     description: ClassVar[str] = ("the truth has shear deformation and rotary inertia "
                                   "(Timoshenko); the model is Euler-Bernoulli")
     params: ClassVar = ()
+    neutral: ClassVar = None
     options: ClassVar = {}
 
     def contribute(self, values, options, setup):
@@ -209,6 +211,7 @@ class GravitySag(Effect):
                                   "vertical bending")
     params: ClassVar = (EffectParam("scale", 1.0, "multiple of the physical sag (1 = gravity "
                                     "on the nominal supports)", 0.0),)
+    neutral: ClassVar = {"scale": 0.0}
     options: ClassVar = {}
 
     def contribute(self, values, options, setup):
