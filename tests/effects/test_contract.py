@@ -45,7 +45,8 @@ MODERATE = {
     "process_noise": {"rms": 0.5}, "closed_loop": {"gain": 50.0},
     "coulomb_friction": {"force_n": 0.5}, "cubic_stiffness": {"k3_n_m3": 1e9},
     "dead_band": {"gap_m": 1e-5, "stiffness_n_m": 1e5},
-    "amplitude_damping": {"c2_n_s2_m2": 50.0},
+    "amplitude_damping": {"c2_n_s2_m2": 50.0}, "channel_gain": {"gain_error": 0.05},
+    "grounded_spring": {"stiffness_n_m": 2e4}, "grounded_dashpot": {"damping_n_s_m": 20.0},
 }
 """A moderate strength of each effect (what it changes at that strength is checked)."""
 

@@ -6,7 +6,14 @@ See :mod:`truthbench.effects.base` for the protocol and the scopes,
 every effect.
 """
 
-from truthbench.effects import appended, loop, measurement, nonlinear, structural  # noqa: F401
+from truthbench.effects import (  # noqa: F401  (registration)
+    appended,
+    attachments,
+    loop,
+    measurement,
+    nonlinear,
+    structural,
+)
 from truthbench.effects.base import (
     EFFECTS,
     SCOPES,

@@ -5,6 +5,8 @@ from __future__ import annotations
 from typing import ClassVar
 
 from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.effects.hardware import Filter
+from truthbench.errors import ModelError
 
 
 @register_effect
@@ -36,6 +38,26 @@ class SensorBias(Effect):
     def contribute(self, values, options, setup):
         setup.bias_offset += values["offset"]
         setup.bias_gain *= 1.0 + values["gain_error"]
+
+
+@register_effect
+class ChannelGain(Effect):
+    name: ClassVar[str] = "channel_gain"
+    target: ClassVar[str] = "measurement"
+    default_scope: ClassVar[str] = "test"
+    description: ClassVar[str] = ("one recorded output is (1 + gain_error) x the output (a "
+                                  "wrong sensitivity in one channel's calibration)")
+    params: ClassVar = (EffectParam("gain_error", 0.0, "relative gain error", -0.99),)
+    options: ClassVar = {"sensor": 0}
+    per_test_channels: ClassVar[bool] = True
+
+    def contribute(self, values, options, setup):
+        k = int(options["sensor"])
+        if not 0 <= k < len(setup.sensors):
+            raise ModelError(f"effect 'channel_gain': sensor {k} does not exist; the test "
+                             f"has sensors 0..{len(setup.sensors) - 1}")
+        if values["gain_error"] != 0:
+            setup.output_filters.append(Filter((1.0 + values["gain_error"],), (1.0,), k))
 
 
 @register_effect
