@@ -123,9 +123,11 @@ class StructuralModel:
         """Mass-normalised real modes; see :func:`solve_modes`."""
         return solve_modes(self.M, self.K, n_modes)
 
-    def frf(self, freq_hz, n_modes: int | None = None, modes: Modes | None = None) -> np.ndarray:
+    def frf(self, freq_hz, n_modes: int | None = None, modes: Modes | None = None, *,
+            decay_rad_s: float = 0.0) -> np.ndarray:
         """FRF by modal superposition, shape (n_freq, n_out, n_in); see :func:`frf`."""
-        return frf(self, freq_hz, modes if modes is not None else self.modes(n_modes))
+        return frf(self, freq_hz, modes if modes is not None else self.modes(n_modes),
+                   decay_rad_s=decay_rad_s)
 
     def state_space(self, n_modes: int | None = None, modes: Modes | None = None):
         """``control.StateSpace`` of the modal first-order form (states: eta, eta')."""
@@ -269,7 +271,8 @@ def modal_system(model: StructuralModel, modes: Modes):
     return A, B, C, D
 
 
-def frf(model: StructuralModel, freq_hz, modes: Modes) -> np.ndarray:
+def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0.0
+        ) -> np.ndarray:
     """Frequency response by modal superposition.
 
     Parameters
@@ -279,6 +282,10 @@ def frf(model: StructuralModel, freq_hz, modes: Modes) -> np.ndarray:
         Frequencies, Hz (0 is allowed unless there are undamped rigid-body modes).
     modes : Modes
         The modal basis (all or the lowest modes).
+    decay_rad_s : float, optional
+        Evaluate the transfer function at ``s = decay_rad_s + j omega`` instead of on the
+        imaginary axis: the FRF of the impulse response times ``exp(-decay_rad_s t)``,
+        what an exponential window makes of a measured FRF (1/s).
 
     Returns
     -------
@@ -286,7 +293,7 @@ def frf(model: StructuralModel, freq_hz, modes: Modes) -> np.ndarray:
         Output per input in SI units (e.g. (m/s^2)/N for acceleration per force).
     """
     w = 2.0 * np.pi * np.atleast_1d(np.asarray(freq_hz, dtype=float))
-    s = 1j * w
+    s = 1j * w + decay_rad_s if decay_rad_s else 1j * w
     Xi = modal_damping_matrix(model, modes)
     Bm = modes.shapes.T @ model.B  # (m, n_in)
     Cm = model.C_out @ modes.shapes  # (n_out, m)

@@ -51,11 +51,13 @@ class Loop:
         C[self.input, 0] = self.gain
         return control.ss([[-wc]], B, C, np.zeros((n_in, n_out)))
 
-    def close(self, H: np.ndarray, freq_hz: np.ndarray) -> np.ndarray:
+    def close(self, H: np.ndarray, freq_hz: np.ndarray, *, decay_rad_s: float = 0.0
+              ) -> np.ndarray:
         """Closed-loop FRF from the open-loop one, shape (n_freq, n_out, n_in): with
         ``g = H[:, :, input]`` the rank-one update ``H - k g H[:, output, :] /
-        (1 + k g_output)`` (Sherman-Morrison for ``(I + H E k S)^-1 H``)."""
-        k = self.response(2j * np.pi * np.asarray(freq_hz))
+        (1 + k g_output)`` (Sherman-Morrison for ``(I + H E k S)^-1 H``), at
+        ``s = decay_rad_s + j omega``."""
+        k = self.response(2j * np.pi * np.asarray(freq_hz) + decay_rad_s)
         g = H[:, :, self.input]
         row = H[:, self.output, :]
         den = 1.0 + k * g[:, self.output]
