@@ -1,0 +1,156 @@
+"""What an averaged H1 estimate measures: the true FRF seen through the spectral window.
+
+With a stationary random input of flat spectrum, the expected cross- and auto-spectra of
+windowed segments are the true ones convolved with the window's power spectrum
+``|W(f)|^2`` (Bendat and Piersol, Random Data, ch. 8 and 9), so to first order in
+1/averages
+
+    E[H1](f_k) = sum_m K_m H(f_k + m delta) U(f_k + m delta)
+                 / sum_m K_m U(f_k + m delta),        K_m = |W(m delta)|^2,
+
+with ``U`` the input's (flat, band-limited) spectrum and ``W`` the DTFT of the segment
+window. For a periodic input (a record of ``period_samples`` samples repeated, what the
+campaigns use) the input has lines only at multiples of ``delta = fs / period``, and the
+sum is exact on that grid; otherwise ``delta`` is a fine grid standing for the
+continuum. Near a lightly damped resonance this smoothing lowers and widens the peak: the
+leakage bias that makes damping read from short segments too high (METHOD 4, Figure
+10.3). A model compared with such data should be compared through the same window:
+:func:`expected_h1` does that, given a function that evaluates the model FRF.
+
+Pure functions on arrays; nothing here estimates from data.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from truthbench._validation import check_number, readonly
+from truthbench.measure.windows import get_window
+
+
+@dataclass(frozen=True)
+class LeakageKernel:
+    """The smoothing an averaged H1 estimate applies to the true FRF.
+
+    Attributes
+    ----------
+    delta_hz : float
+        Grid spacing of the input's lines (periodic) or of the continuum's stand-in, Hz.
+    offsets : ndarray of int, shape (2M + 1,)
+        Kernel offsets in units of ``delta_hz``.
+    weights : ndarray, shape (2M + 1,)
+        ``|W(m delta)|^2``, normalised to sum 1.
+    lines_per_bin : int
+        Grid lines per segment bin (``fs / segment_samples`` over ``delta_hz``).
+    """
+
+    delta_hz: float
+    offsets: np.ndarray
+    weights: np.ndarray
+    lines_per_bin: int
+
+
+def h1_kernel(window: str, segment_samples: int, fs_hz: float, *,
+              period_samples: int | None = None, lines_per_bin: int = 8,
+              tail: float = 1e-6, max_bins: int = 64) -> LeakageKernel:
+    """The kernel of :func:`expected_h1` for a segment window.
+
+    Parameters
+    ----------
+    window : str
+        Segment window name (:func:`~truthbench.measure.get_window`).
+    segment_samples : int
+        Segment length, samples.
+    fs_hz : float
+        Sampling rate, Hz.
+    period_samples : int, optional
+        Period of a periodic input, samples; it must be a whole number of segments
+        (the grid is then the input's own lines). None: a random input, the continuum
+        stood in for by ``lines_per_bin`` lines per segment bin.
+    tail : float
+        Kernel weight left out at each side (the kernel is cut where the remaining
+        ``|W|^2`` falls below this fraction of the total).
+    max_bins : int
+        Widest kernel half-width, segment bins.
+
+    Returns
+    -------
+    LeakageKernel
+    """
+    n = check_number("segment_samples", segment_samples, low=2, integer=True,
+                     where="h1_kernel")
+    fs = check_number("fs_hz", fs_hz, low=0, low_open=True, where="h1_kernel")
+    if period_samples is not None:
+        period = check_number("period_samples", period_samples, low=n, integer=True,
+                              where="h1_kernel")
+        if period % n:
+            raise ValueError(f"h1_kernel: 'period_samples' ({period}) must be a whole "
+                             f"number of segments of {n} samples")
+        lines_per_bin = period // n
+    else:
+        lines_per_bin = check_number("lines_per_bin", lines_per_bin, low=1, integer=True,
+                                     where="h1_kernel")
+    w = get_window(window, n)
+    # |W|^2 on the grid m * fs / (n * lines_per_bin): zero-padded FFT
+    P = np.abs(np.fft.fft(w, n * lines_per_bin)) ** 2
+    half = min(max_bins * lines_per_bin, (n * lines_per_bin) // 2 - 1)
+    m = np.arange(-half, half + 1)
+    k = P[m % P.size]
+    total = P.sum()
+    # cut the tails: the smallest symmetric support keeping all but `tail` each side
+    outside = total - np.cumsum(k[half:] + np.r_[0.0, k[:half][::-1]])
+    keep = int(np.searchsorted(-outside, -2 * tail * total)) + 1
+    keep = min(keep, half)
+    sel = slice(half - keep, half + keep + 1)
+    weights = k[sel] / k[sel].sum()
+    return LeakageKernel(fs / (n * lines_per_bin), readonly(m[sel]), readonly(weights),
+                         int(lines_per_bin))
+
+
+def expected_h1(freq_hz, frf: Callable[[np.ndarray], np.ndarray], kernel: LeakageKernel,
+                band_hz: tuple[float, float] | None = None) -> np.ndarray:
+    """The expected H1 estimate at ``freq_hz`` of a system whose FRF is ``frf``.
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n_freq,)
+        The estimate's lines, Hz: multiples of the segment bin ``kernel.delta_hz *
+        kernel.lines_per_bin``.
+    frf : callable
+        ``frf(f) -> H``, shape (len(f), n_out, n_in), the true FRF at Hz ``f``.
+    kernel : LeakageKernel
+    band_hz : (float, float), optional
+        The input's (flat) band; lines of the fine grid outside it carry no input. Default:
+        every line carries input.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_freq, n_out, n_in)
+        NaN at a line whose kernel meets no input line.
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    idx = np.rint(f / kernel.delta_hz).astype(np.int64)
+    if np.any(np.abs(idx * kernel.delta_hz - f) > 1e-6 * kernel.delta_hz):
+        raise ValueError("expected_h1: the lines are not on the kernel's grid (multiples "
+                         f"of {kernel.delta_hz:g} Hz)")
+    grid = np.unique((idx[:, None] + kernel.offsets[None, :]).ravel())
+    fine = grid * kernel.delta_hz
+    on = fine > 0
+    if band_hz is not None:
+        on &= (fine >= band_hz[0] - 1e-9 * kernel.delta_hz) & \
+            (fine <= band_hz[1] + 1e-9 * kernel.delta_hz)
+    Hf = np.zeros((grid.size,) + np.shape(frf(fine[:1]))[1:], dtype=complex)
+    if on.any():
+        Hf[on] = frf(fine[on])
+    pos = np.searchsorted(grid, idx[:, None] + kernel.offsets[None, :])  # (n_freq, 2M+1)
+    weight = kernel.weights[None, :] * on[pos]
+    rows = np.repeat(np.arange(f.size), kernel.offsets.size)
+    S = sp.csr_matrix((weight.ravel(), (rows, pos.ravel())), shape=(f.size, grid.size))
+    norm = np.asarray(S.sum(axis=1)).ravel()
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = (S @ Hf.reshape(grid.size, -1)) / norm[:, None]
+    return out.reshape((f.size,) + Hf.shape[1:])
