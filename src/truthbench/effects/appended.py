@@ -10,8 +10,23 @@ from typing import ClassVar
 
 import numpy as np
 
-from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.effects.base import (
+    Diagnosable,
+    Effect,
+    EffectParam,
+    FitParam,
+    register_effect,
+)
 from truthbench.effects.hardware import Filter
+
+
+def _bandwidth(fitted) -> dict[str, float]:
+    """A low-pass fitted by its time constant ``tau_s`` (0: ideal, infinite bandwidth)."""
+    tau = fitted["tau_s"]
+    return {"bandwidth_hz": np.inf if tau <= 0 else 1.0 / (2 * np.pi * tau)}
+
+
+_LOW_PASS = Diagnosable((FitParam("tau_s", "time", 0.5, minimum=0.0),), to_values=_bandwidth)
 
 
 def _first_order_low_pass(bandwidth_hz: float) -> Filter:
@@ -29,6 +44,7 @@ class ActuatorDynamics(Effect):
     params: ClassVar = (EffectParam("bandwidth_hz", 1e3, "corner frequency, Hz", 1e-3),)
     options: ClassVar = {}
     neutral: ClassVar = {"bandwidth_hz": np.inf}
+    diagnosis: ClassVar = _LOW_PASS
 
     def contribute(self, values, options, setup):
         if np.isfinite(values["bandwidth_hz"]):  # infinite bandwidth: an ideal actuator
@@ -44,6 +60,7 @@ class SensorDynamics(Effect):
     params: ClassVar = (EffectParam("bandwidth_hz", 2e3, "natural frequency, Hz", 1e-3),)
     options: ClassVar = {}
     neutral: ClassVar = {"bandwidth_hz": np.inf}
+    diagnosis: ClassVar = _LOW_PASS
 
     def contribute(self, values, options, setup):
         if not np.isfinite(values["bandwidth_hz"]):  # infinite bandwidth: an ideal sensor
@@ -60,6 +77,7 @@ class TimeDelay(Effect):
                                   "delay (exact: a linear phase -omega tau, no Pade)")
     params: ClassVar = (EffectParam("delay_s", 0.0, "delay, s", 0.0),)
     options: ClassVar = {}
+    diagnosis: ClassVar = Diagnosable((FitParam("delay_s", "time", 1.0, minimum=0.0),))
 
     def contribute(self, values, options, setup):
         setup.delay_s += values["delay_s"]

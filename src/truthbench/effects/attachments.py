@@ -11,7 +11,13 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.effects.base import (
+    Diagnosable,
+    Effect,
+    EffectParam,
+    FitParam,
+    register_effect,
+)
 from truthbench.fe.assembly import direction_index
 
 
@@ -28,6 +34,9 @@ class GroundedSpring(Effect):
     params: ClassVar = (EffectParam("stiffness_n_m", 0.0, "stiffness, N/m (N m/rad for a "
                                     "rotation)", 0.0),)
     options: ClassVar = {"station": None, "direction": "z"}
+    diagnosis: ClassVar = Diagnosable(
+        (FitParam("stiffness_n_m", "stiffness", 0.01, minimum=0.0),), location="station",
+        directions="translation")
 
     def contribute(self, values, options, setup):
         dof = _dof(setup, options)
@@ -43,6 +52,9 @@ class GroundedDashpot(Effect):
     params: ClassVar = (EffectParam("damping_n_s_m", 0.0, "damping, N s/m (N m s/rad for a "
                                     "rotation)", 0.0),)
     options: ClassVar = {"station": None, "direction": "z"}
+    diagnosis: ClassVar = Diagnosable(
+        (FitParam("damping_n_s_m", "damping", 0.01, minimum=0.0),), location="station",
+        directions="translation")
 
     def contribute(self, values, options, setup):
         dof = _dof(setup, options)

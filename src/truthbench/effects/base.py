@@ -28,7 +28,7 @@ Scopes (Table 10.4 vocabulary):
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -58,6 +58,54 @@ class Distribution:
     std: float = 0.0
 
 
+@dataclass(frozen=True)
+class FitParam:
+    """A parameter diagnosis fits when it tries an effect as missing.
+
+    Parameters
+    ----------
+    name : str
+        The fitted parameter (an effect parameter, or another parameterisation, see
+        :attr:`Diagnosable.to_values`).
+    reference : {"mass", "stiffness", "damping", "rotary_damping", "time", "unit"}
+        The model quantity its natural size is a fraction of (total mass, modal stiffness
+        and damping of the first elastic mode, 1 / (2 pi f_max), 1): sets the fit's
+        step and trust region, not the answer.
+    factor : float
+        The natural size as a fraction of ``reference``.
+    start : float
+        Starting value (the effect's neutral value).
+    minimum, maximum : float, optional
+        Physical bounds of the fitted value: a fit outside them by more than two standard
+        deviations is not physical and is not chosen.
+    """
+
+    name: str
+    reference: str
+    factor: float
+    start: float = 0.0
+    minimum: float | None = None
+    maximum: float | None = None
+
+
+@dataclass(frozen=True)
+class Diagnosable:
+    """How diagnosis tries an effect as missing: its fitted parameters and where.
+
+    ``location`` is ``"station"`` (tried at every node of the model), ``"sensor"`` (at
+    every output channel) or None (no location). ``directions`` is ``"translation"``
+    (tried in every measured translational direction), ``"bending"`` (the bending
+    rotation of every measured transverse direction: z -> ry, y -> rz) or None.
+    ``to_values(fitted) -> effect values`` turns the fitted parameters into the effect's
+    own (default: they are the effect's own).
+    """
+
+    fitted: tuple[FitParam, ...]
+    location: str | None = None
+    directions: str | None = None
+    to_values: Callable[[Mapping[str, float]], dict[str, float]] | None = None
+
+
 class Effect:
     """Base class of the effects; subclasses are registered with :func:`register_effect`."""
 
@@ -76,6 +124,9 @@ class Effect:
     neutral setting (element physics is either Timoshenko or not). The shared contract
     test checks that the hardware with the effect at these values has the nominal
     FRF."""
+
+    diagnosis: ClassVar[Diagnosable | None] = None
+    """How diagnosis fits this effect as a missing one (None: it is not a candidate)."""
 
     @classmethod
     def neutral_values(cls) -> tuple[dict[str, float], dict[str, object]] | None:

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.effects.base import (
+    Diagnosable,
+    Effect,
+    EffectParam,
+    FitParam,
+    register_effect,
+)
 from truthbench.effects.hardware import Filter
 from truthbench.errors import ModelError
 
@@ -34,6 +40,7 @@ class SensorBias(Effect):
     params: ClassVar = (EffectParam("offset", 0.0, "offset in the output's unit"),
                         EffectParam("gain_error", 0.0, "relative gain error", -0.99))
     options: ClassVar = {}
+    diagnosis: ClassVar = Diagnosable((FitParam("gain_error", "unit", 0.01, minimum=-0.99),))
 
     def contribute(self, values, options, setup):
         setup.bias_offset += values["offset"]
@@ -46,16 +53,26 @@ class ChannelGain(Effect):
     target: ClassVar[str] = "measurement"
     default_scope: ClassVar[str] = "test"
     description: ClassVar[str] = ("one recorded output is (1 + gain_error) x the output (a "
-                                  "wrong sensitivity in one channel's calibration)")
+                                  "wrong sensitivity in one channel's calibration); "
+                                  "`sensor` is the index of the test's sensor or its label")
     params: ClassVar = (EffectParam("gain_error", 0.0, "relative gain error", -0.99),)
     options: ClassVar = {"sensor": 0}
     per_test_channels: ClassVar[bool] = True
+    diagnosis: ClassVar = Diagnosable((FitParam("gain_error", "unit", 0.01, minimum=-0.99),),
+                                      location="sensor")
 
     def contribute(self, values, options, setup):
-        k = int(options["sensor"])
-        if not 0 <= k < len(setup.sensors):
-            raise ModelError(f"effect 'channel_gain': sensor {k} does not exist; the test "
-                             f"has sensors 0..{len(setup.sensors) - 1}")
+        which = options["sensor"]
+        if isinstance(which, str) and not which.lstrip("-").isdigit():
+            labels = [s.label for s in setup.sensors]
+            if which not in labels:
+                return  # that sensor is not in this test
+            k = labels.index(which)
+        else:
+            k = int(which)
+            if not 0 <= k < len(setup.sensors):
+                raise ModelError(f"effect 'channel_gain': sensor {k} does not exist; the "
+                                 f"test has sensors 0..{len(setup.sensors) - 1}")
         if values["gain_error"] != 0:
             setup.output_filters.append(Filter((1.0 + values["gain_error"],), (1.0,), k))
 

@@ -10,7 +10,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.effects.base import (
+    Diagnosable,
+    Effect,
+    EffectParam,
+    FitParam,
+    register_effect,
+)
 from truthbench.errors import ModelError
 from truthbench.fe.assembly import direction_index
 
@@ -112,6 +118,9 @@ class BoundaryConditions(Effect):
                         EffectParam("damping_n_s_m", 0.0, "added suspension damping, N s/m",
                                     0.0))
     options: ClassVar = {}
+    diagnosis: ClassVar = Diagnosable(
+        (FitParam("stiffness_rel", "unit", 0.1, minimum=-0.99),
+         FitParam("damping_n_s_m", "damping", 0.01, minimum=0.0)))
 
     def contribute(self, values, options, setup):
         if "suspension_stiffness_n_m" not in setup.parameters:
@@ -132,6 +141,10 @@ class Joint(Effect):
                         EffectParam("damping_n_m_s_rad", 0.0, "dashpot on the relative "
                                     "bending rotation across the joint element", 0.0))
     options: ClassVar = {"station": None, "direction": "ry"}
+    diagnosis: ClassVar = Diagnosable(
+        (FitParam("stiffness_loss", "unit", 0.1, minimum=0.0, maximum=0.99),
+         FitParam("damping_n_m_s_rad", "rotary_damping", 0.1, minimum=0.0)),
+        location="station", directions="bending")
 
     def contribute(self, values, options, setup):
         plant = setup.plant
@@ -152,6 +165,8 @@ class AddedMass(Effect):
     description: ClassVar[str] = "a point mass at a station (structural change, Table 10.4)"
     params: ClassVar = (EffectParam("mass_kg", 0.0, "added mass, kg", 0.0),)
     options: ClassVar = {"station": None}
+    diagnosis: ClassVar = Diagnosable((FitParam("mass_kg", "mass", 0.01, minimum=0.0),),
+                                      location="station")
 
     def contribute(self, values, options, setup):
         node = setup.plant.station_node(options["station"])
@@ -164,6 +179,7 @@ class SensorMass(Effect):
     name: ClassVar[str] = "sensor_mass"
     description: ClassVar[str] = "accelerometer mass loading at every sensor station"
     per_test_channels: ClassVar[bool] = True
+    diagnosis: ClassVar = Diagnosable((FitParam("mass_kg", "mass", 0.005, minimum=0.0),))
     params: ClassVar = (EffectParam("mass_kg", 0.0, "mass of one accelerometer, kg", 0.0),)
     options: ClassVar = {}
 
@@ -212,6 +228,7 @@ class GravitySag(Effect):
     params: ClassVar = (EffectParam("scale", 1.0, "multiple of the physical sag (1 = gravity "
                                     "on the nominal supports)", 0.0),)
     neutral: ClassVar = {"scale": 0.0}
+    diagnosis: ClassVar = Diagnosable((FitParam("scale", "unit", 1.0, minimum=0.0),))
     options: ClassVar = {}
 
     def contribute(self, values, options, setup):

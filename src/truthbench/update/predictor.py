@@ -27,7 +27,7 @@ realised on its own).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,6 +37,7 @@ from truthbench.effects.base import EffectSpec, mean_values
 from truthbench.effects.hardware import Hardware
 from truthbench.effects.setup import SetupBuilder
 from truthbench.errors import ModelError
+from truthbench.measure.leakage import LeakageKernel, expected_h1
 from truthbench.plants.base import Actuator, Plant, Sensor
 
 APPENDED_PARAMETERS = {"delay_s": 0.0, "sensor_gain": 1.0}
@@ -48,7 +49,7 @@ KINDS = ("plant", "appended", "effect")
 
 @dataclass(frozen=True)
 class PredictedTest:
-    """The lines and channels of one test to predict.
+    """The lines and channels of one test to predict, and how its data were estimated.
 
     Parameters
     ----------
@@ -57,12 +58,23 @@ class PredictedTest:
         Hz.
     actuators : sequence of Actuator
     sensors : sequence of Sensor
+    decay_rad_s : float
+        An exponential window's decay rate (impact data): the model is evaluated at
+        ``s = decay_rad_s + j omega``, exactly what the window does to the FRF (1/s).
+    kernel : LeakageKernel, optional
+        The averaged estimate's smoothing (:mod:`truthbench.measure.leakage`), used by
+        ``predict(..., estimator=True)``.
+    band_hz : (float, float), optional
+        The excitation's band (lines of the kernel outside it carry no input).
     """
 
     name: str
     freq_hz: np.ndarray
     actuators: tuple[Actuator, ...]
     sensors: tuple[Sensor, ...]
+    decay_rad_s: float = 0.0
+    kernel: LeakageKernel | None = None
+    band_hz: tuple[float, float] | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "freq_hz", readonly(self.freq_hz, float))
@@ -82,19 +94,58 @@ class PredictedTest:
 class EffectTerm:
     """An effect in the model whose parameters an update may vary.
 
-    ``theta`` carries its parameters as ``f"{label}.{name}"``; absent ones stay at the
-    effect's mean values.
+    ``theta`` carries the fitted parameters as ``f"{label}.{name}"``; absent ones stay at
+    ``start`` (default the effect's means). By default the fitted parameters are the
+    effect's own; ``free`` and ``to_values`` give another parameterisation (e.g. a
+    low-pass fitted by its time constant, which starts at 0, and turned into the
+    effect's bandwidth).
+
+    Parameters
+    ----------
+    label : str
+        Unique among the predictor's effects.
+    spec : EffectSpec
+        The effect and its options (a station, a direction).
+    free : tuple of str, optional
+        Fitted parameter names (default: the effect's parameters).
+    to_values : callable, optional
+        ``to_values(fitted) -> effect parameter values`` (default: the identity).
+    start : mapping, optional
+        Starting values of the fitted parameters.
     """
 
     label: str
     spec: EffectSpec
+    free: tuple[str, ...] | None = None
+    to_values: Callable[[Mapping[str, float]], Mapping[str, float]] | None = None
+    start: Mapping[str, float] | None = None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The fitted parameters' own names (without the label)."""
+        return tuple(self.free) if self.free is not None else tuple(
+            p.name for p in self.spec.effect.params)
 
     def keys(self) -> tuple[str, ...]:
-        return tuple(f"{self.label}.{p.name}" for p in self.spec.effect.params)
+        return tuple(f"{self.label}.{n}" for n in self.names)
+
+    def initial(self) -> dict[str, float]:
+        """Starting fitted values, by own name."""
+        means = mean_values(self.spec)
+        start = dict(self.start or {})
+        return {n: float(start.get(n, means.get(n, 0.0))) for n in self.names}
+
+    def fitted(self, theta: Mapping[str, float]) -> dict[str, float]:
+        """The fitted parameters in ``theta`` (``initial`` where absent), by own name."""
+        return {n: float(theta.get(f"{self.label}.{n}", v))
+                for n, v in self.initial().items()}
 
     def values(self, theta: Mapping[str, float]) -> dict[str, float]:
-        means = mean_values(self.spec)
-        return {k: float(theta.get(f"{self.label}.{k}", v)) for k, v in means.items()}
+        """The effect's parameter values at ``theta``."""
+        fitted = self.fitted(theta)
+        values = mean_values(self.spec)
+        values.update(self.to_values(fitted) if self.to_values is not None else fitted)
+        return values
 
 
 @dataclass(frozen=True)
@@ -153,7 +204,7 @@ class FRFPredictor:
         out = dict(self.nominal)
         out.update(APPENDED_PARAMETERS)
         for term in self.effects:
-            out.update({f"{term.label}.{k}": v for k, v in mean_values(term.spec).items()})
+            out.update({f"{term.label}.{k}": v for k, v in term.initial().items()})
         return out
 
     @property
@@ -201,25 +252,44 @@ class FRFPredictor:
         builder.bias_gain *= float(theta.get("sensor_gain", 1.0))
         return builder.freeze()
 
-    def predict(self, theta: Mapping[str, float]) -> tuple[np.ndarray, ...]:
+    def predict(self, theta: Mapping[str, float], *, estimator: bool = False
+                ) -> tuple[np.ndarray, ...]:
         """Model FRFs of every test at its lines.
+
+        Parameters
+        ----------
+        theta : mapping
+            Parameter values (nominal where absent).
+        estimator : bool
+            Predict what each test's averaged estimate measures (its
+            :class:`~truthbench.measure.leakage.LeakageKernel` applied to the model),
+            for tests that declare a kernel; else the exact FRF.
 
         Returns
         -------
         tuple of ndarray, complex, shape (n_lines_j, n_out_j, n_in_j)
         """
-        if self._per_test:
-            return tuple(self.hardware(theta, t.actuators, t.sensors).frf(t.freq_hz)
-                         for t in self.tests)
-        hw = self.hardware(theta)
-        acts, sens = self._actuators, self._sensors
         out = []
+        hw = None if self._per_test else self.hardware(theta)
         for t in self.tests:
-            rows = [sens.index(s) for s in t.sensors]
-            cols = [acts.index(a) for a in t.actuators]
-            out.append(hw.frf(t.freq_hz)[:, rows][:, :, cols])
+            if self._per_test:
+                one = self.hardware(theta, t.actuators, t.sensors)
+
+                def frf(f, one=one, t=t):
+                    return one.frf(f, decay_rad_s=t.decay_rad_s)
+            else:
+                rows = [self._sensors.index(s) for s in t.sensors]
+                cols = [self._actuators.index(a) for a in t.actuators]
+
+                def frf(f, rows=rows, cols=cols, t=t):
+                    return hw.frf(f, decay_rad_s=t.decay_rad_s)[:, rows][:, :, cols]
+            if estimator and t.kernel is not None:
+                out.append(expected_h1(t.freq_hz, frf, t.kernel, t.band_hz))
+            else:
+                out.append(frf(t.freq_hz))
         return tuple(out)
 
-    def predict_vector(self, theta: Mapping[str, float]) -> np.ndarray:
+    def predict_vector(self, theta: Mapping[str, float], *, estimator: bool = False
+                       ) -> np.ndarray:
         """:meth:`predict` of every test, raveled and concatenated (complex, 1-D)."""
-        return np.concatenate([h.ravel() for h in self.predict(theta)])
+        return np.concatenate([h.ravel() for h in self.predict(theta, estimator=estimator)])
