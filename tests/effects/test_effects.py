@@ -9,7 +9,7 @@ from truthbench.campaign.truth import build_hardware
 from truthbench.effects import EFFECTS, effect_from_inject, parse_effect
 from truthbench.errors import CampaignError
 from truthbench.measure import estimate_frf
-from truthbench.plants import Actuator, Sensor
+from truthbench.plants import Actuator, Sensor, make_plant
 from truthbench.simulate import noise_to_signal_ratio
 
 COVERED = set()  # effects exercised below; the last test checks every effect is
@@ -394,6 +394,44 @@ def test_weak_and_strong_nonlinearities_change_the_response(hub_base, entry):
     zero = {**entry, "parameters": {k: 0.0 for k in entry["parameters"]}}
     _, _, same = _hub_frf(hub_base, [zero], 1.0)
     np.testing.assert_allclose(same.H[band], lin.H[band], rtol=1e-9, atol=1e-12)
+
+
+def test_grounded_spring_and_dashpot_add_exactly_their_value_at_one_dof(base):
+    """The attachments add k to K and c to C at the station's DOF and nothing else."""
+    COVERED.update({"grounded_spring", "grounded_dashpot"})
+    ref = _structure(_spec(base))[1]
+    eff = [{"name": "grounded_spring", "station": "mid", "direction": "y",
+            "parameters": {"stiffness_n_m": 3.0e4}},
+           {"name": "grounded_dashpot", "station": "end_b", "direction": "z",
+            "parameters": {"damping_n_s_m": 7.0}}]
+    _, m = _structure(_spec(base, eff))
+    plant = make_plant("free_free_beam", n_elements=8)
+    dK = (m.K - ref.K).toarray()
+    dC = (m.C - ref.C).toarray()
+    i = m.dof_labels.index(f"n{plant.station_node('mid')}.y")
+    j = m.dof_labels.index(f"n{plant.station_node('end_b')}.z")
+    expect_K = np.zeros_like(dK)
+    expect_K[i, i] = 3.0e4
+    expect_C = np.zeros_like(dC)
+    expect_C[j, j] = 7.0
+    np.testing.assert_array_equal(dK, expect_K)
+    np.testing.assert_array_equal(dC, expect_C)
+    np.testing.assert_array_equal(m.M.toarray(), ref.M.toarray())
+
+
+def test_channel_gain_scales_one_output_row_of_the_frf(base):
+    """The gain error multiplies exactly one sensor's row of the exact FRF, by index or by
+    the sensor's label; a label the test lacks leaves it alone."""
+    COVERED.add("channel_gain")
+    f = np.linspace(5.0, 300.0, 40)
+    ref = build_hardware(_spec(base), 0, 0, 1).frf(f)
+    for which in (1, "mid.z.acc"):
+        eff = [{"name": "channel_gain", "sensor": which, "parameters": {"gain_error": 0.07}}]
+        H = build_hardware(_spec(base, eff), 0, 0, 1).frf(f)
+        np.testing.assert_array_equal(H[:, [0, 2]], ref[:, [0, 2]])
+        np.testing.assert_allclose(H[:, 1], 1.07 * ref[:, 1], rtol=1e-15)
+    eff = [{"name": "channel_gain", "sensor": "tip.z.acc", "parameters": {"gain_error": 0.07}}]
+    np.testing.assert_array_equal(build_hardware(_spec(base, eff), 0, 0, 1).frf(f), ref)
 
 
 def test_every_registered_effect_is_tested():
