@@ -447,8 +447,10 @@ def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
     """
     from threadpoolctl import threadpool_limits
 
+    from truthbench.campaign.frf_band_stage import with_frf_band
+
     with threadpool_limits(limits=1, user_api="blas"):
-        return _run_trial(spec, trial, seed)
+        return with_frf_band(spec, _run_trial(spec, trial, seed))
 
 
 def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
