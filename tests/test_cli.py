@@ -21,18 +21,45 @@ def _small_campaign(tmp_path):
     return path
 
 
-def test_run_and_report(tmp_path, capsys):
+def test_run_and_report(tmp_path, capsys, monkeypatch):
     camp = _small_campaign(tmp_path)
     out = tmp_path / "out"
+    import truthbench.campaign.store as store
+
+    def no_read_back(path):
+        raise AssertionError("'run' read its results file back")
+
+    monkeypatch.setattr(store, "load_results", no_read_back)
+    monkeypatch.setattr(store, "read_results", no_read_back)
     assert main(["run", str(camp), "--out", str(out), "--seed", "3"]) == 0
+    monkeypatch.undo()
     printed = capsys.readouterr().out
-    assert "E_pa" in printed and "error after" in printed
+    assert "E_pa" in printed and "error after [%]" in printed and "GPa" in printed
     report = (out / "report.md").read_text()
-    assert "| E_pa |" in report and "error before [%]" in report
-    assert (out / "frf.png").stat().st_size > 10_000
+    assert "| E_pa | GPa |" in report and "error before [%]" in report
+    for name in ("frf_shaker_end.png", "frf_shaker_quarter.png", "poles.png"):
+        assert (out / name).stat().st_size > 10_000
+    assert "data:image/png;base64," in (out / "report.html").read_text()
     (out / "report.md").unlink()
-    assert main(["report", str(out / "results.h5")]) == 0
-    assert (out / "report.md").exists()
+    (out / "report.html").unlink()
+    assert main(["report", str(out / "results.h5"), "--out", str(tmp_path / "again")]) == 0
+    again = (tmp_path / "again" / "report.md").read_text()
+    assert (tmp_path / "again" / "report.html").exists()
+
+    def body(text):  # all but the time the results were written and the stage times
+        return [line for line in text.splitlines() if not line.startswith("- truthbench")
+                and not line.startswith(("| simulate", "| frf |", "| identify", "| bound",
+                                         "| update", "| score"))]
+
+    assert body(again) == body(report)
+
+
+def test_report_of_a_missing_or_foreign_file(tmp_path, capsys):
+    assert main(["report", str(tmp_path / "none.h5")]) == 2
+    assert "none.h5: results file not found" in capsys.readouterr().err
+    (tmp_path / "x.h5").write_bytes(b"junk")
+    assert main(["report", str(tmp_path / "x.h5")]) == 2
+    assert "x.h5: cannot be read as HDF5" in capsys.readouterr().err
 
 
 def test_modes_json(capsys):
@@ -82,6 +109,10 @@ def test_simulate_with_injected_effects(tmp_path, capsys):
     assert t["y"].shape == (4, 4096) and t["H"].shape[1:] == (4, 1)
     assert json.loads(data["attrs"]["injected"]) == ["time_delay:delay_s=0.002",
                                                     "joint:station=mid,stiffness_loss=0.2"]
+    assert main(["report", str(out)]) == 0  # the single-test file has a report too
+    md = (tmp_path / "report.md").read_text()
+    assert "`joint:station=mid,stiffness_loss=0.2`" in md
+    assert (tmp_path / "frf_shaker_quarter.png").exists()
 
 
 def test_simulate_bad_input(tmp_path, capsys):

@@ -1,22 +1,47 @@
 """What a campaign run produces: test records, trial results, the campaign result.
 
-Frozen dataclasses; the runner (:mod:`truthbench.campaign.runner`) makes them and the
-store (:mod:`truthbench.campaign.store`) writes them.
+Frozen dataclasses; the runner (:mod:`truthbench.campaign.runner`) makes them, the
+store (:mod:`truthbench.campaign.store`) writes them and :meth:`CampaignResult.load`
+reads them back. The report (:mod:`truthbench.report`) only formats what they hold.
+
+Looking at a result
+-------------------
+* ``result.to_pandas(name)``: a tidy per-trial table, one row per trial and item
+  (``"parameters"``, ``"modes"``, ``"coverage"``, ``"frf_error"``, ``"frf_band"``,
+  ``"tests"``, ``"stage_times"``; :mod:`truthbench.campaign.tables`);
+* ``result.summary(name)``: the aggregation over trials the report shows (the same
+  names, plus ``"methods"`` and ``"uncertainty"``);
+* ``result.coverage()``: the bound's coverage with its intervals
+  (:class:`~truthbench.campaign.coverage.CoverageSummary`);
+* ``result.plot(kind, trial=..., test=...)``: a matplotlib figure (``"frf"``,
+  ``"poles"``, ``"frf_band"``, ``"calibration"``; :mod:`truthbench.campaign.figures`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from truthbench.campaign.spec import CampaignSpec
 from truthbench.measure.frfdata import FRFData
 
+if TYPE_CHECKING:
+    from truthbench.campaign.frf_band_stage import FrfBandStage
+
 STAGES = ("simulate", "frf", "identify", "bound", "update", "score")
 """Stages timed per trial (:attr:`TrialResult.seconds`): truth simulation, FRF
-estimation, modal identification, the uncertainty model, the updaters, and scoring
-against the truth (model FRFs and modal accuracy)."""
+estimation, modal identification, the uncertainty models (modal bound and FRF band),
+the updaters, and scoring against the truth (model FRFs and modal accuracy)."""
+
+
+def frf_unit(output, input) -> str:  # noqa: A002 - the FRF's input channel
+    """The unit of an FRF from ``input`` to ``output``
+    (:class:`~truthbench.measure.frfdata.Channel`): ``"m/s^2/N"``, ``"rad/s/(N m)"``."""
+    den = input.unit
+    return f"{output.unit}/({den})" if " " in den else f"{output.unit}/{den}"
 
 
 @dataclass(frozen=True)
@@ -30,10 +55,13 @@ class TestRecord:
         The estimated FRFs (H1) with their coherence and channels; ``freq_hz``, ``H``,
         ``coherence`` and the channel labels are read through it.
     u, y : ndarray, shape (n_in, n_samples), (n_out, n_samples)
-        Recorded input and (noisy) output time histories.
+        Recorded input (N or N m) and (noisy) output time histories (the outputs'
+        units); ``n_samples`` is 0 when the campaign's ``[output]`` does not keep them.
     fs_hz : float
     parameters : dict
         The exact truth parameters of the hardware in this test.
+    modes : ModalParameters or None
+        Identified modes (:class:`~truthbench.identify.ModalParameters`), or None.
     """
 
     __test__ = False  # not a pytest test class
@@ -45,7 +73,6 @@ class TestRecord:
     fs_hz: float
     parameters: dict
     modes: object | None = None
-    """Identified modes (:class:`~truthbench.identify.ModalParameters`), or None."""
 
     @property
     def freq_hz(self) -> np.ndarray:
@@ -67,13 +94,53 @@ class TestRecord:
     def output_labels(self) -> tuple[str, ...]:
         return self.frf.output_labels
 
+    def to_pandas(self):
+        """The FRFs as a long table (:meth:`FRFData.to_pandas
+        <truthbench.measure.frfdata.FRFData.to_pandas>`)."""
+        return self.frf.to_pandas()
+
+    def plot(self, **kwargs):
+        """Magnitude, phase and coherence of the FRFs (:meth:`FRFData.plot
+        <truthbench.measure.frfdata.FRFData.plot>`); returns the figure."""
+        return self.frf.plot(**kwargs)
+
 
 @dataclass(frozen=True)
 class TrialResult:
     """One Monte Carlo trial: its tests, the update and the model FRFs before and after.
 
-    ``update`` is None when the campaign does not update; ``error`` holds the message
-    of a failed trial (its tests so far are kept)."""
+    Attributes
+    ----------
+    trial : int
+    tests : tuple of TestRecord
+        In campaign order.
+    truth : dict
+        The trial's hardware truth for scoring (:func:`~truthbench.campaign.runner.
+        hardware_truth`), name -> value in the parameter's unit.
+    update : UpdateResult or None
+        The primary updater's result; None when the campaign does not update, or the
+        trial failed.
+    H_initial, H_updated : tuple of ndarray, complex, each (n_freq_pos, n_out, n_in)
+        Model FRFs per test at the test's lines above 0 Hz, in the test's FRF units.
+    update_mask : tuple of ndarray of bool, each (n_freq,)
+        Lines of each test used by the update.
+    accuracy : dict
+        ``{"initial": ..., "<method>": ..., "updated": ...}``: modes against the truth
+        (:func:`~truthbench.campaign.metrics.modal_accuracy`); ``"updated"`` is the
+        primary updater's.
+    error : str or None
+        The message of a failed trial (its tests so far are kept).
+    comparison : dict
+        Every updater's result by name (or its error message).
+    uncertainty : UncertaintyStage or None
+        :class:`~truthbench.campaign.uncertainty_stage.UncertaintyStage`.
+    seconds : dict
+        Wall-clock seconds per stage (:data:`STAGES`); not part of the results'
+        identity (they vary from run to run).
+    frf_band : FrfBandStage or None
+        The FRF-domain uncertainty model
+        (:class:`~truthbench.campaign.frf_band_stage.FrfBandStage`), or None.
+    """
 
     trial: int
     tests: tuple[TestRecord, ...]
@@ -83,30 +150,203 @@ class TrialResult:
     H_updated: tuple[np.ndarray, ...] = ()
     update_mask: tuple[np.ndarray, ...] = ()
     accuracy: dict = field(default_factory=dict)
-    """``{"initial": ..., "updated": ...}``: modes against the truth
-    (:func:`~truthbench.campaign.metrics.modal_accuracy`)."""
     error: str | None = None
     comparison: dict = field(default_factory=dict)
-    """Every updater's result by name (or its error message)."""
     uncertainty: object | None = None
-    """:class:`~truthbench.campaign.uncertainty_stage.UncertaintyStage`, or None."""
     seconds: dict = field(default_factory=dict)
-    """Wall-clock seconds per stage (:data:`STAGES`); not part of the results' identity
-    (they vary from run to run)."""
+    frf_band: FrfBandStage | None = None
+
+    def test(self, name: str) -> TestRecord:
+        """The test record called ``name``.
+
+        Raises
+        ------
+        KeyError
+            Naming the test and the trial's tests.
+        """
+        for rec in self.tests:
+            if rec.name == name:
+                return rec
+        raise KeyError(f"trial {self.trial} has no test {name!r}; its tests are "
+                       f"{', '.join(r.name for r in self.tests) or 'none'}")
 
 
 @dataclass(frozen=True)
 class CampaignResult:
-    """Everything a campaign run produced, with what made it."""
+    """Everything a campaign run produced, with what made it.
+
+    Attributes
+    ----------
+    spec : CampaignSpec
+    seed : int
+    version : str
+        The truthbench version that ran the campaign.
+    nominal : dict
+        The nominal plant parameters.
+    trials : tuple of TrialResult
+    created_utc : str or None
+        When the results file was written (ISO 8601), for a loaded result.
+    path : str or None
+        The file a loaded result came from.
+    injected : tuple of str
+        Effects injected by ``truthbench simulate --inject`` (a single-test file).
+
+    Notes
+    -----
+    A single-test file of ``truthbench simulate`` loads as a result with one trial
+    (the simulated trial's number) holding the one test, with an empty ``truth`` (the
+    test's exact truth is its ``parameters``) and no update.
+    """
 
     spec: CampaignSpec
     seed: int
     version: str
     nominal: dict
     trials: tuple[TrialResult, ...]
+    created_utc: str | None = None
+    path: str | None = None
+    injected: tuple[str, ...] = ()
 
+    # ---- files -----------------------------------------------------------------------
+    @classmethod
+    def load(cls, path: str | Path) -> CampaignResult:
+        """Read a results file written by :meth:`save` (or ``truthbench run``), or a
+        single-test file of ``truthbench simulate``.
+
+        Raises
+        ------
+        DataFormatError
+            Naming the file: missing, not HDF5, not a truthbench results file, or a
+            stored part that does not parse (with its HDF5 path).
+        """
+        from truthbench.campaign.store import load_results
+
+        return load_results(path)
+
+    def save(self, path: str | Path) -> Path:
+        """Write to HDF5 (:func:`~truthbench.campaign.store.write_results`)."""
+        from truthbench.campaign.store import write_results
+
+        return write_results(self, path)
+
+    # ---- views -----------------------------------------------------------------------
     @property
     def stage_seconds(self) -> dict:
         """Wall-clock seconds per stage summed over the trials (worker time, not elapsed
         time)."""
         return {k: float(sum(t.seconds.get(k, 0.0) for t in self.trials)) for k in STAGES}
+
+    @property
+    def primary_method(self) -> str | None:
+        """The campaign's primary updater, or None when it does not update."""
+        methods = self.spec.update_methods()
+        return methods[0] if methods else None
+
+    @property
+    def failed(self) -> tuple[TrialResult, ...]:
+        """The trials that failed."""
+        return tuple(t for t in self.trials if t.error)
+
+    def trial(self, number: int | None = None) -> TrialResult:
+        """The trial numbered ``number``; default the first trial that did not fail (or
+        the first trial when all failed).
+
+        Raises
+        ------
+        KeyError
+            Naming the trial and the ones the result holds.
+        """
+        if number is None:
+            ok = [t for t in self.trials if not t.error]
+            if not ok and not self.trials:
+                raise KeyError("the result holds no trial")
+            return (ok or list(self.trials))[0]
+        for t in self.trials:
+            if t.trial == number:
+                return t
+        raise KeyError(f"no trial {number}; the result holds trials "
+                       f"{', '.join(str(t.trial) for t in self.trials) or 'none'}")
+
+    def to_pandas(self, table: str = "parameters"):
+        """A tidy per-trial table (:func:`truthbench.campaign.tables.table`).
+
+        Parameters
+        ----------
+        table : str
+            ``"parameters"`` (per trial, parameter and updater: nominal, truth, updated,
+            errors before and after, %), ``"modes"`` (per trial, model and truth mode:
+            frequency and damping error, %, MAC), ``"coverage"`` (per trial, test and
+            bounded modal parameter: identified, truth, bound, inside), ``"frf_error"``,
+            ``"frf_band"``, ``"tests"``, ``"stage_times"`` (seconds per stage).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from truthbench.campaign.tables import table as make
+
+        return make(self, table)
+
+    def summary(self, table: str = "parameters"):
+        """An aggregation over trials (:func:`truthbench.campaign.tables.summary`):
+        ``"parameters"`` (mean values, bias and RMS error per updater),
+        ``"modes"``, ``"methods"`` (no update against every updater), ``"coverage"``
+        (per parameter, Wilson intervals), ``"uncertainty"`` (the first trial's bound),
+        ``"frf_error"``, ``"frf_band"``, ``"tests"``, ``"stage_times"``.
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from truthbench.campaign.tables import summary
+
+        return summary(self, table)
+
+    def coverage(self, confidence: float = 0.95):
+        """Coverage of the uncertainty bound against the truth over the trials
+        (:func:`truthbench.campaign.coverage.coverage_summary`, at the campaign's
+        ``k_sigma``), or None when no trial has an uncertainty stage."""
+        from truthbench.campaign.coverage import coverage_summary
+
+        return coverage_summary([t.uncertainty for t in self.trials if not t.error],
+                                self.spec.uncertainty.k_sigma, confidence)
+
+    def plot(self, kind: str = "frf", *, trial: int | None = None, test: str | None = None,
+             **kwargs):
+        """A figure of the result (:mod:`truthbench.campaign.figures`).
+
+        Parameters
+        ----------
+        kind : {"frf", "poles", "frf_band", "calibration"}
+            ``"frf"``: one test's data against the initial and updated model, magnitude
+            and phase (and coherence) per output, with units; ``"poles"``: the poles of
+            the tests with the bound (Figure 10.6), one panel per mode; ``"frf_band"``:
+            the FRF-domain band with the models; ``"calibration"``: held-out coverage
+            against k.
+        trial : int, optional
+            Trial number; default the first that did not fail.
+        test : str, optional
+            For ``"frf"``: the test (default the first).
+        **kwargs
+            Passed to the figure function.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from truthbench.campaign import figures
+
+        funcs = {"frf": figures.plot_frf, "poles": figures.plot_poles,
+                 "frf_band": figures.plot_frf_band}
+        if kind == "calibration":
+            cov = self.coverage()
+            if cov is None:
+                raise ValueError("no calibration figure: no trial has an uncertainty stage")
+            return cov.plot(**kwargs)
+        if kind not in funcs:
+            raise ValueError(f"unknown figure {kind!r}; expected one of "
+                             f"{', '.join([*funcs, 'calibration'])}")
+        tr = self.trial(trial)
+        if kind == "frf":
+            return figures.plot_frf(self, tr, test, **kwargs)
+        return funcs[kind](self, tr, **kwargs)

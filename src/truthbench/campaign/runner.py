@@ -25,6 +25,7 @@ from joblib import Parallel, delayed
 from threadpoolctl import threadpool_limits
 
 from truthbench._version import __version__
+from truthbench.campaign.frf_band_stage import with_frf_band
 from truthbench.campaign.identification import identify_test
 from truthbench.campaign.metrics import modal_accuracy
 from truthbench.campaign.results import STAGES, CampaignResult, TestRecord, TrialResult
@@ -307,7 +308,7 @@ def run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
     running trials side by side.
     """
     with threadpool_limits(limits=1, user_api="blas"):
-        return _run_trial(spec, trial, seed)
+        return with_frf_band(spec, _run_trial(spec, trial, seed))
 
 
 def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:

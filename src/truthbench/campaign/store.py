@@ -1,31 +1,65 @@
-"""The results store: one HDF5 file per campaign run.
+"""The results store: one HDF5 file per campaign run, and reading it back.
 
-Layout (all SI units; FRFs complex (n_freq, n_out, n_in))::
+:func:`write_results` writes a :class:`~truthbench.campaign.results.CampaignResult`;
+:func:`load_results` (``CampaignResult.load``) rebuilds it, typed, from the file;
+:func:`read_results` returns the file as nested dicts (for tools that want the raw
+layout). :func:`write_test_record` writes the single-test file of
+``truthbench simulate``, which :func:`load_results` reads too.
+
+Layout (SI units; FRFs complex (n_freq, n_out, n_in); strings UTF-8)::
 
     /                      attrs: format, truthbench_version, seed, campaign, spec_json,
-                                  created_utc, n_trials
-    /nominal               attrs: parameter -> value
+                                  source, created_utc, n_trials
+    /nominal               attrs: parameter -> value (unit in the name: E_pa, rho_kg_m3)
     /trials/0000           attrs: status ("ok" | "failed"), error
         truth              attrs: parameter -> value
-        seconds            attrs: stage -> wall-clock seconds (results.STAGES)
-        tests/<name>       datasets freq_hz, H, coherence, u, y (u, y empty for trials
-                           whose time histories the campaign's [output] does not keep);
-                           attrs fs_hz, input_labels, output_labels
+        seconds            attrs: stage -> wall-clock seconds, s (results.STAGES)
+        tests/<name>       datasets freq_hz, H, coherence, u, y (u, y have 0 samples for
+                           trials whose time histories the campaign's [output] does not
+                           keep); attrs fs_hz, input_labels, output_labels;
+                           H attrs: n_averages, band_hz, excitation, window_decay_rad_s,
+                           notes (the FRFData's)
+        tests/<name>/channels/outputs, .../inputs
+                           one entry per row / column of H: datasets label, quantity,
+                           direction, station, unit (strings, "" for none), sign,
+                           point (-1 for none), coordinates_m (n, 3; NaN for none)
         tests/<name>/parameters   attrs: the exact truth parameters of this test
-        tests/<name>/identified   datasets freq_hz, damping_ratio, shapes (pLSCF)
+        tests/<name>/identified   datasets freq_hz, damping_ratio, shapes (n_out, n_modes),
+                           participation (n_modes, n_in); attr output_labels (pLSCF)
         update             datasets names, initial, values, history, cost_history,
                            singular_values, correlation; attrs converged, method,
                            condition_number
-        model/<name>       datasets H_initial, H_updated, update_mask
-        updates/<method>   the same for every updater run side by side (or attr error)
+        model/<name>       datasets H_initial, H_updated (lines above 0 Hz), update_mask
+        updates/<method>   the same as update for every updater run side by side (or
+                           attr error)
         accuracy/initial, accuracy/updated, accuracy/<method>   modes against the truth
                            at the sensors: truth_freq_hz, freq_error_pct,
-                           damping_error_pct, mac
+                           damping_error_pct, mac, n_unpaired_truth
         uncertainty        names, theta_0, theta_tests, theta_truth (per test), mean, std,
                            bound (Eq. 10.46-10.50), inside (truth within the bound),
-                           holdout (tests that did not build the bound)
+                           mode_index, holdout (tests that did not build the bound),
+                           theta_updated
+        frf_band           the FRF-domain band (campaign.frf_band_stage): datasets tests,
+                           freq_hz, mean, cov (n_freq, n_out, n_in, 2, 2), line_mask;
+                           attrs k_sigma, n_tests, output_labels, input_labels,
+                           inside_initial, inside_updated (fractions in [0, 1])
 
-A failed trial is written with what it had computed, so nothing is lost.
+Units: every numeric dataset carries a ``unit`` attribute: ``"Hz"``, ``"s"``, ``"m"``,
+``"%"``, ``"-"`` (dimensionless: ratios, MAC, coherence, masks, counts, indices), the
+FRF unit from the channels (output unit per input unit: ``"m/s^2/N"``,
+``"rad/s/(N m)"``), an update parameter's unit (``"Pa"``, ``"kg/m^3"``). When the
+entries of one dataset differ, ``unit`` is an array of strings: per channel pair
+(shape (n_out, n_in)) for FRFs, per channel (one per row) for ``u`` and ``y``, per
+parameter (one per ``names`` entry) for parameter vectors and tables. The cost of an
+update is ``"(weighted residual)^2"`` and its singular values ``"weighted residual per
+parameter unit"``: their units depend on the weighting. Identified ``shapes`` and
+``participation`` are ``"arb."``: their product is the displacement-equivalent residue,
+the split of its scale between them is arbitrary. Attributes holding numbers have their
+unit in their name (``fs_hz``, ``E_pa``) or in this docstring.
+
+A failed trial is written with what it had computed, so nothing is lost. Files written
+before channels, FRF metadata and units were stored load too: channels are rebuilt
+from the stored spec (without coordinates), the FRF metadata from the spec's tests.
 """
 
 from __future__ import annotations
@@ -39,6 +73,7 @@ import numpy as np
 from truthbench.errors import DataFormatError
 
 FORMAT = "truthbench-results-1"
+"""The ``format`` attribute of a results file; a single-test file has ``FORMAT + "/test"``."""
 
 
 def _attrs(group, mapping):
@@ -46,13 +81,59 @@ def _attrs(group, mapping):
         group.attrs[k] = v
 
 
-def write_results(result, path: str | Path) -> Path:
-    """Write a :class:`~truthbench.campaign.results.CampaignResult` to HDF5."""
+# ---- units -------------------------------------------------------------------------
+def _set_unit(ds, unit) -> None:
+    """``unit`` as a string, or an array of strings when its entries differ."""
+    arr = np.asarray(unit, dtype=object)
+    if arr.ndim == 0 or len(set(arr.ravel().tolist())) == 1:
+        ds.attrs["unit"] = str(arr.ravel()[0]) if arr.ndim else str(arr)
+    else:
+        import h5py
+
+        ds.attrs.create("unit", arr.astype(str).astype(object),
+                        dtype=h5py.string_dtype("utf-8"))
+
+
+def _dataset(group, name, data, unit, **kwargs):
+    ds = group.create_dataset(name, data=data, **kwargs)
+    _set_unit(ds, unit)
+    return ds
+
+
+def _frf_units(frf) -> np.ndarray:
+    """Unit per (output, input) pair, shape (n_out, n_in)."""
+    from truthbench.campaign.results import frf_unit
+
+    return np.array([[frf_unit(o, i) for i in frf.inputs] for o in frf.outputs], dtype=object)
+
+
+def _theta_units(names) -> list[str]:
+    """Units of the uncertainty stage's ``f<k>_hz`` and ``zeta<k>`` parameters."""
+    return ["Hz" if n.endswith("_hz") else "-" for n in names]
+
+
+def _strings(group, name, values) -> None:
     import h5py
+
+    group.create_dataset(name, data=np.array(list(values), dtype=object),
+                         dtype=h5py.string_dtype("utf-8"))
+
+
+# ---- writing -----------------------------------------------------------------------
+def write_results(result, path: str | Path) -> Path:
+    """Write a :class:`~truthbench.campaign.results.CampaignResult` to HDF5 (layout in
+    the module docstring); the file appears complete or not at all."""
+    import h5py
+
+    from truthbench.campaign.tables import parameter_unit
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".part")
+
+    def units(names):
+        return [parameter_unit(result.spec, n) for n in names]
+
     with h5py.File(tmp, "w") as f:
         _attrs(f, {
             "format": FORMAT, "truthbench_version": result.version, "seed": result.seed,
@@ -71,44 +152,37 @@ def write_results(result, path: str | Path) -> Path:
             _attrs(g.create_group("seconds"), tr.seconds)
             tests = g.create_group("tests")
             for rec in tr.tests:
-                t = tests.create_group(rec.name)
-                for name in ("freq_hz", "H", "coherence"):
-                    t.create_dataset(name, data=getattr(rec, name))
-                for name in ("u", "y"):
-                    t.create_dataset(name, data=getattr(rec, name), compression="gzip",
-                                     compression_opts=4, shuffle=True)
-                _attrs(t, {"fs_hz": rec.fs_hz, "input_labels": list(rec.input_labels),
-                           "output_labels": list(rec.output_labels)})
-                _attrs(t.create_group("parameters"), rec.parameters)
-                _write_modes(t, rec.modes)
+                _write_test(tests.create_group(rec.name), rec)
             if tr.uncertainty is not None:
-                st = g.create_group("uncertainty")
-                st.create_dataset("names", data=np.array(tr.uncertainty.names, dtype="S"))
-                for name in ("theta_0", "theta_tests", "theta_truth", "mean", "std", "bound",
-                             "inside", "mode_index", "holdout", "theta_updated"):
-                    if getattr(tr.uncertainty, name) is not None:
-                        st.create_dataset(name, data=getattr(tr.uncertainty, name))
+                _write_uncertainty(g.create_group("uncertainty"), tr.uncertainty)
             if tr.update is not None:
-                _write_update(g.create_group("update"), tr.update)
+                _write_update(g.create_group("update"), tr.update, units)
                 for method, res in tr.comparison.items():
                     c = g.create_group(f"updates/{method}")
                     if isinstance(res, str):
                         c.attrs["error"] = res
                     else:
-                        _write_update(c, res)
+                        _write_update(c, res, units)
                 for stage, acc in tr.accuracy.items():
                     a = g.create_group(f"accuracy/{stage}")
                     for key, value in acc.items():
-                        a.create_dataset(key, data=value)
+                        _dataset(a, key, value, _ACCURACY_UNITS.get(key, "-"))
                 m = g.create_group("model")
                 for rec, hi, hu, mask in zip(tr.tests, tr.H_initial, tr.H_updated,
                                              tr.update_mask, strict=True):
                     mg = m.create_group(rec.name)
-                    mg.create_dataset("H_initial", data=hi)
-                    mg.create_dataset("H_updated", data=hu)
-                    mg.create_dataset("update_mask", data=mask)
+                    fu = _frf_units(rec.frf)
+                    _dataset(mg, "H_initial", hi, fu)
+                    _dataset(mg, "H_updated", hu, fu)
+                    _dataset(mg, "update_mask", mask, "-")
+            if getattr(tr, "frf_band", None) is not None:
+                _write_frf_band(g.create_group("frf_band"), tr.frf_band, tr)
     tmp.replace(path)
     return path
+
+
+_ACCURACY_UNITS = {"truth_freq_hz": "Hz", "freq_error_pct": "%", "damping_error_pct": "%",
+                   "mac": "-", "n_unpaired_truth": "-"}
 
 
 def write_test_record(record, path: str | Path, *, spec, seed: int, trial: int,
@@ -127,39 +201,97 @@ def write_test_record(record, path: str | Path, *, spec, seed: int, trial: int,
                    "spec_json": json.dumps(spec.to_toml_dict()), "source": spec.source,
                    "injected": json.dumps(list(injected)),
                    "created_utc": datetime.now(UTC).isoformat(timespec="seconds")})
-        t = f.create_group(f"tests/{record.name}")
-        for name in ("freq_hz", "H", "coherence"):
-            t.create_dataset(name, data=getattr(record, name))
-        for name in ("u", "y"):
-            t.create_dataset(name, data=getattr(record, name), compression="gzip",
-                             compression_opts=4, shuffle=True)
-        _attrs(t, {"fs_hz": record.fs_hz, "input_labels": list(record.input_labels),
-                   "output_labels": list(record.output_labels)})
-        _attrs(t.create_group("parameters"), record.parameters)
-        _write_modes(t, record.modes)
+        _write_test(f.create_group(f"tests/{record.name}"), record)
     return path
 
 
-def _write_update(u, res) -> None:
+def _write_test(t, rec) -> None:
+    frf = rec.frf
+    _dataset(t, "freq_hz", rec.freq_hz, "Hz")
+    h = _dataset(t, "H", rec.H, _frf_units(frf))
+    _attrs(h, {"n_averages": -1 if frf.n_averages is None else frf.n_averages,
+               "band_hz": np.nan * np.ones(2) if frf.band_hz is None else frf.band_hz,
+               "excitation": frf.excitation, "window_decay_rad_s": frf.window_decay_rad_s,
+               "notes": json.dumps(list(frf.notes))})
+    if rec.coherence is not None:
+        _dataset(t, "coherence", rec.coherence, "-")
+    for name, chans in (("u", frf.inputs), ("y", frf.outputs)):
+        _dataset(t, name, getattr(rec, name), [c.unit for c in chans], compression="gzip",
+                 compression_opts=4, shuffle=True)
+    _attrs(t, {"fs_hz": rec.fs_hz, "input_labels": list(rec.input_labels),
+               "output_labels": list(rec.output_labels)})
+    for side, chans in (("outputs", frf.outputs), ("inputs", frf.inputs)):
+        c = t.create_group(f"channels/{side}")
+        for name in ("label", "quantity", "direction", "station", "unit"):
+            _strings(c, name, [getattr(ch, name) or "" for ch in chans])
+        _dataset(c, "sign", np.array([ch.sign for ch in chans], dtype=int), "-")
+        _dataset(c, "point", np.array([-1 if ch.point is None else ch.point for ch in chans],
+                                      dtype=int), "-")
+        _dataset(c, "coordinates_m", np.array(
+            [ch.coordinates_m or (np.nan,) * 3 for ch in chans], dtype=float).reshape(-1, 3),
+            "m")
+    _attrs(t.create_group("parameters"), rec.parameters)
+    _write_modes(t, rec.modes)
+
+
+def _write_update(u, res, units) -> None:
     u.create_dataset("names", data=np.array(res.names, dtype="S"))
-    for name in ("initial", "values", "history", "cost_history", "singular_values",
-                 "correlation"):
-        u.create_dataset(name, data=getattr(res, name))
+    p = units(res.names)
+    for name, unit in (("initial", p), ("values", p), ("history", p),
+                       ("cost_history", "(weighted residual)^2"),
+                       ("singular_values", "weighted residual per parameter unit"),
+                       ("correlation", "-")):
+        _dataset(u, name, getattr(res, name), unit)
     _attrs(u, {"converged": res.converged, "method": res.method,
                "condition_number": res.condition_number})
 
 
 def _write_modes(group, modes) -> None:
     """Identified modes of a test under ``identified/`` (freq_hz, damping_ratio, shapes
-    (n_out, n_modes) complex, displacement-equivalent)."""
+    (n_out, n_modes) complex, displacement-equivalent, participation (n_modes, n_in))."""
     if modes is None:
         return
     g = group.create_group("identified")
-    g.create_dataset("freq_hz", data=np.asarray(modes.freq_hz))
-    g.create_dataset("damping_ratio", data=np.asarray(modes.damping_ratio))
-    g.create_dataset("shapes", data=np.asarray(modes.shapes))
+    _dataset(g, "freq_hz", np.asarray(modes.freq_hz), "Hz")
+    _dataset(g, "damping_ratio", np.asarray(modes.damping_ratio), "-")
+    _dataset(g, "shapes", np.asarray(modes.shapes), "arb.")
+    if getattr(modes, "participation", None) is not None:
+        _dataset(g, "participation", np.asarray(modes.participation), "arb.")
+    if getattr(modes, "output_labels", None) is not None:
+        g.attrs["output_labels"] = list(modes.output_labels)
 
 
+_UNCERTAINTY_FIELDS = ("theta_0", "theta_tests", "theta_truth", "mean", "std", "bound",
+                       "inside", "mode_index", "holdout", "theta_updated")
+
+
+def _write_uncertainty(st, stage) -> None:
+    st.create_dataset("names", data=np.array(stage.names, dtype="S"))
+    p = _theta_units(stage.names)
+    for name in _UNCERTAINTY_FIELDS:
+        value = getattr(stage, name)
+        if value is not None:
+            _dataset(st, name, value, "-" if name in ("inside", "mode_index", "holdout")
+                     else p)
+
+
+def _write_frf_band(g, stage, trial) -> None:
+    b = stage.band
+    rec = trial.test(stage.tests[0])
+    fu = _frf_units(rec.frf)
+    _strings(g, "tests", stage.tests)
+    _dataset(g, "freq_hz", b.freq_hz, "Hz")
+    _dataset(g, "mean", b.mean, fu)
+    _dataset(g, "cov", b.cov, np.vectorize(lambda s: f"({s})^2", otypes=[object])(fu))
+    _dataset(g, "line_mask", stage.line_mask, "-")
+    _attrs(g, {"k_sigma": b.k_sigma, "n_tests": b.n_tests,
+               "output_labels": list(stage.output_labels),
+               "input_labels": list(stage.input_labels)})
+    for which, frac in stage.inside.items():
+        g.attrs[f"inside_{which}"] = frac
+
+
+# ---- reading -----------------------------------------------------------------------
 def _read_group(g) -> dict:
     out = {"attrs": {k: _plain(v) for k, v in g.attrs.items()}}
     for k, v in g.items():
@@ -177,8 +309,8 @@ def _plain(v):
     return v
 
 
-def read_results(path: str | Path) -> dict:
-    """Read a results file into nested dicts of arrays and attributes.
+def _open(path: str | Path):
+    """The open h5py file of a truthbench results (or single-test) file.
 
     Raises
     ------
@@ -191,11 +323,29 @@ def read_results(path: str | Path) -> dict:
     if not path.exists():
         raise DataFormatError(f"{path}: results file not found")
     try:
-        with h5py.File(path, "r") as f:
-            fmt = f.attrs.get("format")
-            if not str(_plain(fmt)).startswith(FORMAT):
-                raise DataFormatError(f"{path}: not a truthbench results file (attribute "
-                                      f"'format' is {_plain(fmt)!r}; expected {FORMAT!r})")
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise DataFormatError(f"{path}: cannot be read as HDF5 ({exc})") from None
+    fmt = f.attrs.get("format")
+    if not str(_plain(fmt)).startswith(FORMAT):
+        f.close()
+        raise DataFormatError(f"{path}: not a truthbench results file (attribute "
+                              f"'format' is {_plain(fmt)!r}; expected {FORMAT!r})")
+    return f
+
+
+def read_results(path: str | Path) -> dict:
+    """Read a results file into nested dicts of arrays and attributes (the raw layout;
+    :func:`load_results` gives the typed result).
+
+    Raises
+    ------
+    DataFormatError
+        If the file is missing, not HDF5, or not a truthbench results file.
+    """
+    path = Path(path)
+    try:
+        with _open(path) as f:
             data = _read_group(f)
     except OSError as exc:
         raise DataFormatError(f"{path}: cannot be read as HDF5 ({exc})") from None
@@ -204,3 +354,229 @@ def read_results(path: str | Path) -> dict:
         data["attrs"]["single_test"] = True
     data["path"] = str(path)
     return data
+
+
+def load_results(path: str | Path):
+    """Rebuild the :class:`~truthbench.campaign.results.CampaignResult` of a results
+    file (``CampaignResult.load``).
+
+    A single-test file of ``truthbench simulate`` gives a result with one trial (its
+    number from the file) holding the one test, an empty trial truth and no update;
+    ``injected`` lists the effects injected.
+
+    Raises
+    ------
+    DataFormatError
+        Naming the file (and the HDF5 path of a part that does not parse): missing, not
+        HDF5, not a truthbench results file, a stored spec that is not a valid campaign.
+    """
+    path = Path(path)
+    where = str(path)
+    try:
+        with _open(path) as f:
+            return _load(f, path)
+    except DataFormatError:
+        raise
+    except (KeyError, ValueError, TypeError, OSError) as exc:
+        raise DataFormatError(f"{where}: cannot be loaded as a truthbench result "
+                              f"({type(exc).__name__}: {exc})") from None
+
+
+class _Part(Exception):
+    """A part of the file that does not parse: its HDF5 path and the cause."""
+
+
+def _load(f, path: Path):
+    from truthbench.campaign.results import CampaignResult, TrialResult
+    from truthbench.campaign.spec import parse_campaign
+    from truthbench.errors import CampaignError
+
+    a = {k: _plain(v) for k, v in f.attrs.items()}
+    try:
+        spec = parse_campaign(json.loads(a["spec_json"]), source=a.get("source", str(path)))
+    except (KeyError, json.JSONDecodeError, CampaignError) as exc:
+        raise DataFormatError(f"{path}: attribute 'spec_json' is not a valid campaign "
+                              f"({type(exc).__name__}: {exc})") from None
+    order = {t.name: j for j, t in enumerate(spec.tests)}
+    common = dict(spec=spec, seed=int(a["seed"]), version=str(a["truthbench_version"]),
+                  created_utc=a.get("created_utc"), path=str(path))
+    try:
+        if str(a["format"]).endswith("/test"):
+            tests = _read_tests(f["tests"], spec, order)
+            trial = TrialResult(int(a.get("trial", 0)), tests, {})
+            return CampaignResult(nominal=spec.nominal_parameters(), trials=(trial,),
+                                  injected=tuple(json.loads(a.get("injected", "[]"))),
+                                  **common)
+        trials = tuple(_read_trial(f["trials"][k], spec, order)
+                       for k in sorted(f["trials"]))
+        return CampaignResult(nominal=_attr_dict(f["nominal"]), trials=trials, **common)
+    except _Part as exc:
+        raise DataFormatError(f"{path}: {exc}") from None
+
+
+def _attr_dict(g) -> dict:
+    return {k: _plain(v) for k, v in g.attrs.items()}
+
+
+def _strs(values) -> tuple[str, ...]:
+    return tuple(v.decode() if isinstance(v, bytes) else str(v) for v in np.ravel(values))
+
+
+def _read_tests(group, spec, order) -> tuple:
+    names = sorted(group, key=lambda n: (order.get(n, len(order)), n))
+    return tuple(_read_test(group[n], spec, order.get(n)) for n in names)
+
+
+def _channels(t, spec, j, side: str, labels):
+    """The channels of one side of a stored test, or (older files) from the spec."""
+    from truthbench.measure.frfdata import Channel
+
+    if f"channels/{side}" in t:
+        c = t[f"channels/{side}"]
+        out = []
+        for k, label in enumerate(_strs(c["label"][()])):
+            def s(name, k=k):
+                v = _strs(c[name][()])[k]
+                return v or None
+            xyz = c["coordinates_m"][k]
+            point = int(c["point"][k])
+            out.append(Channel(label, s("quantity"), s("direction"), int(c["sign"][k]),
+                               None if point < 0 else point,
+                               None if not np.all(np.isfinite(xyz)) else tuple(xyz.tolist()),
+                               s("station")))
+        return tuple(out)
+    from truthbench.plants import Actuator, Sensor
+
+    if j is None:
+        raise _Part(f"{t.name}: no stored channels and no test of that name in the spec")
+    if side == "outputs":
+        made = [(Sensor(s.station, s.direction, s.quantity).label, s.quantity, s.direction,
+                 s.station) for s in spec.test_sensors(j)]
+    else:
+        made = [(Actuator(a.station, a.direction).label, "force", a.direction, a.station)
+                for a in spec.tests[j].actuators]
+    if tuple(m[0] for m in made) != tuple(labels):
+        raise _Part(f"{t.name}: no stored channels, and the spec's {side} "
+                    f"{[m[0] for m in made]} do not match the stored labels {list(labels)}")
+    return tuple(Channel(lab, q, d, station=st) for lab, q, d, st in made)
+
+
+def _read_test(t, spec, j):
+    from truthbench.campaign.results import TestRecord
+    from truthbench.measure.frfdata import FRFData
+
+    name = t.name.rsplit("/", 1)[-1]
+    try:
+        attrs = _attr_dict(t)
+        outputs = _channels(t, spec, j, "outputs", _strs(attrs["output_labels"]))
+        inputs = _channels(t, spec, j, "inputs", _strs(attrs["input_labels"]))
+        h = t["H"]
+        ha = _attr_dict(h)
+        if "n_averages" in ha:
+            n_avg = None if ha["n_averages"] < 0 else int(ha["n_averages"])
+            band = tuple(float(x) for x in ha["band_hz"])
+            band = None if not np.all(np.isfinite(band)) else band
+            meta = dict(n_averages=n_avg, band_hz=band, excitation=str(ha["excitation"]),
+                        window_decay_rad_s=float(ha["window_decay_rad_s"]),
+                        notes=tuple(json.loads(ha["notes"])))
+        else:  # written before the FRF metadata was stored
+            meta = dict(band_hz=None if j is None else tuple(spec.tests[j].band_hz))
+        frf = FRFData(name, t["freq_hz"][()], h[()], outputs, inputs,
+                      coherence=t["coherence"][()] if "coherence" in t else None, **meta)
+        modes = None
+        if "identified" in t:
+            from truthbench.identify import ModalParameters
+
+            g = t["identified"]
+            labels = g.attrs.get("output_labels")
+            modes = ModalParameters(
+                g["freq_hz"][()], g["damping_ratio"][()], g["shapes"][()],
+                g["participation"][()] if "participation" in g else None,
+                None if labels is None else _strs(labels))
+        return TestRecord(name, frf, t["u"][()], t["y"][()], float(attrs["fs_hz"]),
+                          _attr_dict(t["parameters"]), modes)
+    except _Part:
+        raise
+    except (KeyError, ValueError, TypeError) as exc:
+        raise _Part(f"{t.name}: {type(exc).__name__}: {exc}") from None
+
+
+def _read_update(u):
+    from truthbench.update.finite_difference import UpdateResult
+
+    a = _attr_dict(u)
+    return UpdateResult(_strs(u["names"][()]), u["initial"][()], u["values"][()],
+                        u["history"][()], u["cost_history"][()], u["singular_values"][()],
+                        float(a["condition_number"]), u["correlation"][()],
+                        bool(a["converged"]), str(a["method"]))
+
+
+def _read_uncertainty(st):
+    from truthbench.campaign.uncertainty_stage import UncertaintyStage
+
+    v = {k: st[k][()] for k in _UNCERTAINTY_FIELDS if k in st}
+    return UncertaintyStage(_strs(st["names"][()]), v["theta_0"], v["theta_tests"],
+                            v["theta_truth"], v["mean"], v["std"], v["bound"], v["inside"],
+                            v["mode_index"], v["holdout"], v.get("theta_updated"))
+
+
+def _read_frf_band(g):
+    from truthbench.campaign.frf_band_stage import FrfBandStage
+    from truthbench.uncertainty.frequency import FrfUncertainty
+
+    a = _attr_dict(g)
+    band = FrfUncertainty(g["mean"][()], g["cov"][()], int(a["n_tests"]),
+                          float(a["k_sigma"]), g["freq_hz"][()])
+    inside = {k[len("inside_"):]: float(v) for k, v in a.items() if k.startswith("inside_")}
+    inside = {k: inside[k] for k in ("initial", "updated") if k in inside}
+    return FrfBandStage(_strs(g["tests"][()]), band, g["line_mask"][()], inside,
+                        _strs(a["output_labels"]), _strs(a["input_labels"]))
+
+
+def _read_trial(g, spec, order):
+    from truthbench.campaign.results import TrialResult
+
+    try:
+        a = _attr_dict(g)
+        tests = _read_tests(g["tests"], spec, order)
+        methods = spec.update_methods()
+
+        def by_method(keys):
+            return sorted(keys, key=lambda m: (methods.index(m) if m in methods
+                                               else len(methods), m))
+
+        kw = {}
+        if "update" in g:
+            kw["update"] = _read_update(g["update"])
+            comparison = {}
+            for m in by_method(g.get("updates", {})):
+                c = g["updates"][m]
+                comparison[m] = str(c.attrs["error"]) if "error" in c.attrs else _read_update(c)
+            kw["comparison"] = comparison
+        if "accuracy" in g:
+            acc = {}
+            keys = list(g["accuracy"])
+            for stage in (["initial"] if "initial" in keys else []) + by_method(
+                    k for k in keys if k not in ("initial", "updated")) + (
+                    ["updated"] if "updated" in keys else []):
+                s = g["accuracy"][stage]
+                acc[stage] = {k: (int(s[k][()]) if k == "n_unpaired_truth" else s[k][()])
+                              for k in s}
+            kw["accuracy"] = acc
+        if "model" in g:
+            m = g["model"]
+            kw["H_initial"] = tuple(m[r.name]["H_initial"][()] for r in tests)
+            kw["H_updated"] = tuple(m[r.name]["H_updated"][()] for r in tests)
+            kw["update_mask"] = tuple(m[r.name]["update_mask"][()] for r in tests)
+        if "uncertainty" in g:
+            kw["uncertainty"] = _read_uncertainty(g["uncertainty"])
+        if "frf_band" in g:
+            kw["frf_band"] = _read_frf_band(g["frf_band"])
+        return TrialResult(int(g.name.rsplit("/", 1)[-1]), tests, _attr_dict(g["truth"]),
+                           error=str(a.get("error", "")) or None,
+                           seconds={k: float(v) for k, v in _attr_dict(g["seconds"]).items()},
+                           **kw)
+    except _Part:
+        raise
+    except (KeyError, ValueError, TypeError) as exc:
+        raise _Part(f"{g.name}: {type(exc).__name__}: {exc}") from None

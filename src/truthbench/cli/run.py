@@ -9,21 +9,19 @@ from pathlib import Path
 def _cmd_run(args) -> int:
     from truthbench.campaign.runner import run_campaign
     from truthbench.campaign.spec import load_campaign
-    from truthbench.campaign.store import read_results, write_results
-    from truthbench.report.accuracy import parameter_table, write_report
+    from truthbench.report.accuracy import parameter_text, write_report
 
     spec = load_campaign(args.campaign)
     out = Path(args.out) if args.out else Path("results") / spec.campaign.name
     result = run_campaign(spec, trials=args.trials, seed=args.seed, n_jobs=args.jobs)
-    path = write_results(result, out / "results.h5")
-    data = read_results(path)
-    report = write_report(data, out)
+    path = result.save(out / "results.h5")
+    report = write_report(result, out, results_path=path)  # from memory: no read-back
     print(f"results: {path}")
-    print(f"report:  {report}")
-    table = parameter_table(data)
-    if not table.empty:
-        print(table.to_string(index=False, float_format=lambda v: f"{v:.6g}"))
-    failed = [t for t in result.trials if t.error]
+    print(f"report:  {report} (and {report.with_suffix('.html').name})")
+    table = parameter_text(result)
+    if table:
+        print(table)
+    failed = result.failed
     for t in failed:
         print(f"trial {t.trial} failed: {t.error.splitlines()[0]}", file=sys.stderr)
     return 1 if len(failed) == len(result.trials) else 0

@@ -1,7 +1,9 @@
 """A self-contained ``report.html`` from ``report.md``: figures embedded as base64.
 
 The converter covers the markdown the report writes (headings, paragraphs, bullet
-lists, pipe tables, inline code, images), so no markdown package is needed.
+lists, pipe tables with ``\\|`` for a bar inside a cell, inline code, bold, images), so
+no markdown package is needed. Wide tables scroll inside their own box; figures shrink
+to the page's width.
 """
 
 from __future__ import annotations
@@ -17,13 +19,24 @@ body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto;
 table { border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
 th { background: #f3f3f3; } td:first-child, th:first-child { text-align: left; }
-code { background: #f5f5f5; padding: 0 0.2em; } img { max-width: 100%; }
+code { background: #f5f5f5; padding: 0 0.2em; } img { max-width: 100%; height: auto; }
+div.table { max-width: 100%; overflow-x: auto; }
 """
 
 
 def _inline(text: str) -> str:
     out = html.escape(text, quote=False)
-    return re.sub(r"`([^`]+)`", r"<code>\1</code>", out)
+    out = re.sub(r"`([^`]+)`", r"<code>\1</code>", out)
+    return re.sub(r"\*\*([^*]+)\*\*", r"<strong>\1</strong>", out)
+
+
+def split_row(row: str) -> list[str]:
+    """The cells of a markdown table row, split at unescaped ``|`` (``\\|`` is a bar
+    inside a cell)."""
+    body = row.strip()
+    body = body[1:] if body.startswith("|") else body
+    body = body[:-1] if body.endswith("|") and not body.endswith("\\|") else body
+    return [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", body)]
 
 
 def _image(alt: str, src: str, base: Path) -> str:
@@ -60,12 +73,12 @@ def markdown_to_html(md: str, base: Path, title: str = "truthbench report") -> s
             while i < len(lines) and lines[i].startswith("|"):
                 rows.append(lines[i])
                 i += 1
-            cells = [[c.strip() for c in r.strip().strip("|").split("|")] for r in rows]
+            cells = [split_row(r) for r in rows]
             head, data = cells[0], [r for r in cells[1:] if not set("".join(r)) <= set("-: ")]
             out = ["<table><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr>"]
             out += ["<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>"
                     for r in data]
-            body.append("\n".join(out) + "</table>")
+            body.append('<div class="table">' + "\n".join(out) + "</table></div>")
             continue
         if line.startswith("- "):
             items = []

@@ -1,7 +1,8 @@
-"""Coverage of the uncertainty bound against the truth, over Monte Carlo trials.
+"""Coverage of the uncertainty bound against the truth, over the Monte Carlo trials.
 
-Reads the ``uncertainty`` group of every trial in a results file (never reruns
-numerics) and counts the true per-test modal parameters inside each trial's bound:
+From every trial's uncertainty stage
+(:class:`~truthbench.campaign.uncertainty_stage.UncertaintyStage`) count the true
+per-test modal parameters inside that trial's bound:
 
 * **in-sample**: truths of the tests that built the bound; the identified values of
   those tests lie inside it almost by construction (``truthbench.uncertainty.coverage``),
@@ -12,15 +13,14 @@ numerics) and counts the true per-test modal parameters inside each trial's boun
 
 Counted events are independent across trials for one parameter; the parameters of one
 trial are not (one material draw moves every frequency), so pooled fractions carry
-trial-clustered intervals (``coverage_fraction(method="trial-clustered")``) and
-per-parameter fractions Wilson intervals.
+trial-clustered intervals (``coverage_fraction(method="trial-clustered")``, Wilson for a
+single trial) and per-parameter fractions Wilson intervals.
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -39,8 +39,8 @@ class CoverageSummary:
         Tests that built each bound.
     n_trials : int
         Trials with an uncertainty stage and the first one's test split.
-    in_sample : Coverage
-        Trial-clustered interval.
+    in_sample : truthbench.uncertainty.coverage.Coverage
+        Truths of the building tests inside; trial-clustered interval.
     in_sample_expected : float or None
         Normal-theory in-sample value (None for fewer than 3 building tests).
     holdout : Coverage or None
@@ -48,9 +48,12 @@ class CoverageSummary:
     holdout_expected : float
         Student-t new-draw expectation for ``n_build`` tests.
     per_parameter : pandas.DataFrame
-        One row per parameter: held-out (or in-sample) coverage and its interval.
-    calibration : CalibrationCurve or None
-        Held-out coverage against ``k`` (None without held-out tests).
+        One row per parameter: ``parameter``, ``truths``, ``inside``, ``coverage``,
+        ``ci_low``, ``ci_high`` (Wilson) of the held-out truths, or of the in-sample
+        ones without held-out tests.
+    calibration : truthbench.uncertainty.coverage.CalibrationCurve or None
+        Held-out coverage against ``k`` (None without held-out tests or with fewer than
+        two complete trials).
     """
 
     names: tuple[str, ...]
@@ -64,48 +67,79 @@ class CoverageSummary:
     per_parameter: object
     calibration: object | None
 
+    def to_pandas(self):
+        """The per-parameter table (:attr:`per_parameter`), a copy."""
+        return self.per_parameter.copy()
 
-def _names(u) -> tuple[str, ...]:
-    return tuple(n.decode() if isinstance(n, bytes) else str(n) for n in u["names"])
+    def plot(self, ax=None):
+        """The held-out calibration: observed coverage against ``k`` with its interval
+        and the normal-theory expectations.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+
+        Raises
+        ------
+        ValueError
+            Without a calibration curve (no held-out tests).
+        """
+        if self.calibration is None:
+            raise ValueError("no calibration curve: the campaign holds out no test "
+                             "([uncertainty] holdout) or has fewer than two complete trials")
+        fig = self.calibration.plot(ax=ax)
+        fig.axes[0].set_title(f"Held-out truths inside the k-sigma bound "
+                              f"({self.n_trials} trials)", fontsize=10)
+        fig.tight_layout()
+        return fig
 
 
-def _stage_arrays(results: dict):
+def _order(name: str):
+    # f1_hz, f2_hz, .., zeta1, zeta2, ..
+    return (not name.startswith("f"), int(re.sub(r"\D", "", name) or 0), name)
+
+
+def stage_arrays(stages):
     """Per-trial arrays aligned by parameter name (NaN where a trial's stage lacks a
-    parameter), over the trials with the first one's test split."""
-    trials = [t["uncertainty"] for k, t in sorted(results.get("trials", {}).items())
-              if k != "attrs" and "uncertainty" in t]
-    if not trials:
+    parameter), over the stages with the first one's test split.
+
+    Returns
+    -------
+    tuple or None
+        ``(names, holdout (T,), tests (n, T, p), truth (n, T, p), mean_model (n, p),
+        bound (n, p))``, or None without stages.
+    """
+    stages = [u for u in stages if u is not None]
+    if not stages:
         return None
-    n_tests = trials[0]["theta_tests"].shape[0]
-    none = np.zeros(n_tests, bool)
-    hold = np.asarray(trials[0].get("holdout", none), dtype=bool)
-    trials = [u for u in trials if u["theta_tests"].shape[0] == n_tests
-              and np.array_equal(np.asarray(u.get("holdout", none), bool), hold)]
-    names = sorted({n for u in trials for n in _names(u)},  # f1_hz, f2_hz, .., zeta1, ..
-                   key=lambda n: (not n.startswith("f"), int(re.sub(r"\D", "", n) or 0), n))
+    n_tests = stages[0].theta_tests.shape[0]
+    hold = np.asarray(stages[0].holdout, dtype=bool)
+    stages = [u for u in stages if u.theta_tests.shape[0] == n_tests
+              and np.array_equal(np.asarray(u.holdout, bool), hold)]
+    names = sorted({n for u in stages for n in u.names}, key=_order)
     col = {n: i for i, n in enumerate(names)}
-    shape = (len(trials), n_tests, len(names))
+    shape = (len(stages), n_tests, len(names))
     tests, truth = np.full(shape, np.nan), np.full(shape, np.nan)
     mean_model, bound = np.full(shape[::2], np.nan), np.full(shape[::2], np.nan)
-    for i, u in enumerate(trials):
-        c = [col[n] for n in _names(u)]
-        tests[i][:, c], truth[i][:, c] = u["theta_tests"], u["theta_truth"]
-        mean_model[i, c], bound[i, c] = u["theta_0"] + u["mean"], u["bound"]
+    for i, u in enumerate(stages):
+        c = [col[n] for n in u.names]
+        tests[i][:, c], truth[i][:, c] = u.theta_tests, u.theta_truth
+        mean_model[i, c], bound[i, c] = u.theta_0 + u.mean, u.bound
     return tuple(names), hold, tests, truth, mean_model, bound
 
 
-def coverage_summary(results: dict, k_sigma: float | None = None,
+def coverage_summary(stages, k_sigma: float = 3.0,
                      confidence: float = 0.95) -> CoverageSummary | None:
-    """Coverage of the bound over the trials of a results file.
+    """Coverage of the bound over the trials' uncertainty stages.
 
     Parameters
     ----------
-    results : dict
-        :func:`truthbench.campaign.store.read_results` output.
-    k_sigma : float, optional
-        Default: the campaign's ``[uncertainty] k_sigma``.
+    stages : sequence of UncertaintyStage or None
+        One per trial (None entries, trials without a stage, are skipped).
+    k_sigma : float
+        The ``k`` the stages' bounds were built with (``[uncertainty] k_sigma``).
     confidence : float
-        Level of the Wilson intervals.
+        Level of the intervals.
 
     Returns
     -------
@@ -116,12 +150,10 @@ def coverage_summary(results: dict, k_sigma: float | None = None,
 
     from truthbench.uncertainty import calibration_curve, coverage_fraction, expected_coverage
 
-    arrays = _stage_arrays(results)
+    arrays = stage_arrays(stages)
     if arrays is None:
         return None
     names, hold, tests, truth, mean_model, bound = arrays
-    if k_sigma is None:
-        k_sigma = float(results["attrs"]["spec"].get("uncertainty", {}).get("k_sigma", 3.0))
     std = bound / k_sigma
     finite = np.isfinite(truth) & np.isfinite(bound)[:, None, :]
     inside = np.abs(truth - mean_model[:, None, :]) <= k_sigma * std[:, None, :]
@@ -146,25 +178,7 @@ def coverage_summary(results: dict, k_sigma: float | None = None,
         sel = inside[:, rows_from, i][finite[:, rows_from, i]]
         c = coverage_fraction(sel, confidence=confidence)
         rows.append({"parameter": name, "truths": c.n_total, "inside": c.n_inside,
-                     "coverage": c.fraction, "ci low": c.ci_low, "ci high": c.ci_high})
+                     "coverage": c.fraction, "ci_low": c.ci_low, "ci_high": c.ci_high})
     return CoverageSummary(names, float(k_sigma), n_build, tests.shape[0], in_sample,
                            in_expected, held, expected_coverage(k_sigma, n_build),
                            pd.DataFrame(rows), calib)
-
-
-def plot_calibration_figure(summary: CoverageSummary, path: str | Path) -> Path | None:
-    """Write the held-out calibration figure (coverage against k) to ``path``."""
-    if summary is None or summary.calibration is None:
-        return None
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig = summary.calibration.plot()
-    fig.axes[0].set_title(f"Held-out truths inside the k-sigma bound "
-                          f"({summary.n_trials} trials)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
