@@ -384,6 +384,16 @@ def test_generated_name_taken_by_another_station(tube_dict):
     assert parse_campaign(tube_dict, "ok.toml").sensors[0].station == "x600mm"
 
 
+def test_geometry_effect_on_a_dimension_the_section_lacks(tube_dict):
+    tube_dict["truth"] = {"effects": [{"name": "geometry", "parameters": {
+        "t_rel": 0.01, "d_rel": {"mean": 0.0, "std": 0.01}}}]}
+    _bad(tube_dict, r"art.toml: key 'truth.effects\[0\].parameters.d_rel': 'd_rel' scales "
+                    r"'d_m', which the tube section does not have; expected one of r_rel, "
+                    r"t_rel \(or 'L_rel'\), got 'd_rel' with mean 0 and std 0.01")
+    tube_dict["truth"]["effects"][0]["parameters"].pop("d_rel")
+    assert parse_campaign(tube_dict, "ok.toml").truth_effects()[0].name == "geometry"
+
+
 def test_plant_level_errors():
     with pytest.raises(ModelError, match=r"free_free_beam: 'section' must be one of 'tube', "
                                          r"'rectangular_bar', 'circular_bar'; got 'I'"):

@@ -518,6 +518,28 @@ def _place_by_position(spec: CampaignSpec) -> CampaignSpec:
                                    "sensors": sensors, "tests": tests})
 
 
+def _check_geometry_effects(spec: CampaignSpec, plant) -> None:
+    """A geometry effect may only change dimensions the plant's section has."""
+    from truthbench.effects.structural import _DIMENSION_RELS
+    from truthbench.fe.beam import SECTIONS
+
+    dims = SECTIONS[plant.section].dimensions
+    entries = [(f"truth.effects[{k}]", e) for k, e in enumerate(spec.truth_effects())]
+    for j in range(len(spec.tests)):
+        entries += [(f"tests[{j}].effects[{k}]", e) for k, e in enumerate(spec.test_effects(j))]
+    for where, eff in entries:
+        if eff.name != "geometry":
+            continue
+        for rel, dim in _DIMENSION_RELS:
+            d = eff.distributions[rel]
+            if dim not in dims and (d.mean != 0.0 or d.std != 0.0):
+                raise CampaignError(
+                    f"{spec.source}: key '{where}.parameters.{rel}': {rel!r} scales {dim!r}, "
+                    f"which the {plant.section} section does not have; expected one of "
+                    f"{', '.join(r for r, m in _DIMENSION_RELS if m in dims)} (or 'L_rel'), "
+                    f"got {rel!r} with mean {d.mean:g} and std {d.std:g}")
+
+
 def _check_references(spec: CampaignSpec) -> None:
     src = spec.source
     try:
@@ -548,6 +570,7 @@ def _check_references(spec: CampaignSpec) -> None:
                 plant.station_node(eff.options["station"])
             except ModelError as exc:
                 raise CampaignError(f"{src}: effect {eff.name!r}: {exc}") from None
+    _check_geometry_effects(spec, plant)
     from truthbench.campaign.runner import APPENDED_PARAMETERS
 
     appended = [k for k in spec.update.parameters if k in APPENDED_PARAMETERS]
