@@ -137,7 +137,8 @@ def test_batched_assembly_equals_element_by_element_transformation():
     K0, M0 = np.zeros((36, 36)), np.zeros((36, 36))
     for e, (a, b) in enumerate(elements):
         p = props[mesh.groups[e]]
-        k, m = element_matrices(p["E_pa"], p["nu"], p["rho_kg_m3"], p["r_m"], p["t_m"],
+        k, m = element_matrices(p["E_pa"], p["nu"], p["rho_kg_m3"],
+                                TubeSection(p["r_m"], p["t_m"]),
                                 float(np.linalg.norm(nodes[b] - nodes[a])))
         T = T_of(sag_rotation(sag[e]) @ rotation_matrix(nodes[b] - nodes[a]))
         d = np.r_[6 * a + np.arange(6), 6 * b + np.arange(6)]

@@ -17,7 +17,8 @@ AXIAL, V, W, TORSION, RY, RZ = range(6)
 
 def _aa(**kw):
     p = {**NOMINAL, **kw}
-    k, m = element_matrices(p["E_pa"], p["nu"], p["rho_kg_m3"], p["r_m"], p["t_m"], p["L_m"])
+    k, m = element_matrices(p["E_pa"], p["nu"], p["rho_kg_m3"], TubeSection(p["r_m"], p["t_m"]),
+                            p["L_m"])
     return k[:6, :6], m[:6, :6]
 
 
@@ -97,7 +98,8 @@ def test_aa_blocks_match_eq_10_3_entries():
 
 @pytest.mark.parametrize("timoshenko", [False, True])
 def test_element_symmetric_with_six_rigid_body_modes_in_any_orientation(timoshenko):
-    k, m = element_matrices(70e9, 0.3, 2700.0, 0.012, 0.0015, 0.3, timoshenko=timoshenko)
+    k, m = element_matrices(70e9, 0.3, 2700.0, TubeSection(0.012, 0.0015), 0.3,
+                            timoshenko=timoshenko)
     assert np.allclose(k, k.T) and np.allclose(m, m.T)
     R = rotation_matrix(np.array([0.3, -1.2, 0.7]))
     np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-14)
@@ -131,6 +133,9 @@ def test_sag_rotation_is_identity_at_zero_and_orthogonal():
 def test_bad_element_parameters_raise(name, value):
     p = {**NOMINAL, name: value}
     with pytest.raises(ValueError, match=name):
-        element_matrices(p["E_pa"], p["nu"], p["rho_kg_m3"], p["r_m"], p["t_m"], p["L_m"])
+        element_matrices(p["E_pa"], p["nu"], p["rho_kg_m3"], TubeSection(p["r_m"], p["t_m"]),
+                         p["L_m"])
     with pytest.raises(ValueError, match="nu"):
-        element_matrices(70e9, 0.7, 2700.0, 0.01, 0.001, 0.1)
+        element_matrices(70e9, 0.7, 2700.0, TubeSection(0.01, 0.001), 0.1)
+    with pytest.raises(ValueError, match="'section' must be a cross-section"):
+        element_matrices(70e9, 0.3, 2700.0, (0.01, 0.001), 0.1)

@@ -94,12 +94,12 @@ def measure_test(spec: CampaignSpec, j: int, u, y, params: dict, *,
 
 def channels(spec: CampaignSpec, actuators, sensors):
     """The FRF channels of a test's sensors (outputs) and actuators (inputs), at the
-    stations' positions on the nominal beam (x along the beam, m)."""
+    stations' positions on the nominal beam (m)."""
     plant = spec.make_plant()
-    x = plant.node_x_m(spec.nominal_parameters())
+    xyz = plant.node_coordinates_m(spec.nominal_parameters())
 
     def at(station):
-        return (float(x[plant.station_node(station)]), 0.0, 0.0)
+        return tuple(float(v) for v in xyz[plant.station_node(station)])
 
     outputs = tuple(Channel(s.label, s.quantity, s.direction, station=s.station,
                             coordinates_m=at(s.station)) for s in sensors)

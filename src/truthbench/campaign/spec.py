@@ -10,36 +10,88 @@ expected and what was received.
 
 from __future__ import annotations
 
+import functools
+import math
 import tomllib
+from collections.abc import Mapping
+from numbers import Real
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
 
 from truthbench.errors import CampaignError, ModelError
 
 Direction = Literal["x", "y", "z", "rx", "ry", "rz"]
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+
+DEFAULT_NODE_TOLERANCE_M = 1e-4
+"""``[plant] node_tolerance_m`` default (the plants' own
+:data:`~truthbench.plants.base.DEFAULT_NODE_TOLERANCE_M`): a position in metres maps to a
+node no farther than 0.1 mm away."""
 
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
 
 
-class SensorSpec(_Strict):
-    """A sensor: station, direction and quantity."""
+def _one_placement(data: Any, what: str) -> Any:
+    """A sensor or actuator is placed by ``station`` or by ``x_m``: exactly one."""
+    if isinstance(data, Mapping):
+        given = [k for k in ("station", "x_m") if data.get(k) is not None]
+        if len(given) != 1:
+            raise PydanticCustomError(
+                "placement", f"{what} placed by 'station' (a station name) or by 'x_m' "
+                f"(metres along the beam from its first end), exactly one of them; "
+                f"{'both are given' if given else 'neither is given'}")
+    return data
 
-    station: str
+
+class SensorSpec(_Strict):
+    """A sensor: station (or position ``x_m``), direction and quantity.
+
+    A sensor given by ``x_m`` is placed at a generated station (see
+    :func:`position_station_name`) when the campaign is validated."""
+
+    station: str | None = None
+    x_m: FiniteFloat | None = None
     direction: Direction
     quantity: Literal["displacement", "velocity", "acceleration", "strain"] = "acceleration"
 
+    @model_validator(mode="before")
+    @classmethod
+    def _placement(cls, data):
+        return _one_placement(data, "a sensor")
+
 
 class ActuatorSpec(_Strict):
-    """A force or moment input at a station."""
+    """A force or moment input at a station (or position ``x_m``)."""
 
-    station: str
+    station: str | None = None
+    x_m: FiniteFloat | None = None
     direction: Direction
+
+    @model_validator(mode="before")
+    @classmethod
+    def _placement(cls, data):
+        return _one_placement(data, "an actuator")
+
+
+class StationPosition(_Strict):
+    """A station given by its position: ``{ x_m = 0.42 }``, metres along the beam from its
+    first end on the nominal length."""
+
+    x_m: FiniteFloat
 
 
 class CampaignMeta(_Strict):
@@ -50,11 +102,133 @@ class CampaignMeta(_Strict):
 
 
 class PlantSpec(_Strict):
+    """The test article: plant type, mesh, section, material, stations, suspension."""
+
     type: Literal["free_free_beam", "hub_beam"]
     n_elements: Annotated[int, Field(ge=1, le=2000)] = 20
     n_groups: Annotated[int, Field(ge=1)] = 1
-    stations: dict[str, Annotated[float, Field(ge=0, le=1)]] = Field(default_factory=dict)
+    section: str = "tube"
+    """Cross-section, one of :data:`truthbench.fe.beam.SECTIONS` (its dimensions are plant
+    parameters: ``r_m``, ``t_m``; ``b_m``, ``h_m``; ``d_m``)."""
+    material: str = "aluminium"
+    """Material preset (:data:`truthbench.plants.base.MATERIALS`): the defaults of
+    ``E_pa``, ``rho_kg_m3``, ``nu``."""
+    stations: dict[str, float | StationPosition] = Field(default_factory=dict)
+    """Named stations: a fraction of the length (``gauge = 0.35``) or a position
+    (``gauge = { x_m = 0.42 }``)."""
+    suspension_x_m: Annotated[list[FiniteFloat], Field(min_length=1)] | None = None
+    """Suspension points of the free-free beam, metres from the first end (default the
+    nodes nearest 0.224 L and 0.776 L)."""
+    node_tolerance_m: PositiveFloat = DEFAULT_NODE_TOLERANCE_M
+    """Largest distance from a position in metres to the node it maps to."""
     parameters: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("section")
+    @classmethod
+    def _known_section(cls, v):
+        from truthbench.fe.beam import SECTIONS
+
+        if v not in SECTIONS:
+            raise PydanticCustomError("choice", f"one of {', '.join(map(repr, SECTIONS))}")
+        return v
+
+    @field_validator("material")
+    @classmethod
+    def _known_material(cls, v):
+        from truthbench.plants.base import MATERIALS
+
+        if v not in MATERIALS:
+            raise PydanticCustomError("choice", f"one of {', '.join(map(repr, MATERIALS))}")
+        return v
+
+    @field_validator("stations", mode="before")
+    @classmethod
+    def _station_values(cls, v):
+        if not isinstance(v, Mapping):
+            return v  # pydantic reports the type
+        def number(x):
+            return isinstance(x, Real) and not isinstance(x, bool) and math.isfinite(x)
+
+        out = {}
+        for name, value in v.items():
+            if isinstance(value, StationPosition):
+                out[name] = value
+            elif isinstance(value, Mapping) and set(value) == {"x_m"} and number(value["x_m"]):
+                out[name] = StationPosition(x_m=float(value["x_m"]))
+            elif number(value) and 0.0 <= float(value) <= 1.0:
+                out[name] = float(value)
+            else:
+                raise PydanticCustomError(
+                    "station", f"station {name!r} as a fraction of the length in [0, 1] or "
+                    f"as a position {{ x_m = <metres from the first end> }}, not {value!r}")
+        return out
+
+    def resolved_positions(self) -> tuple[dict[str, float], tuple[float, ...] | None]:
+        """Stations and suspension points as node fractions (``node / n_elements``):
+        positions in metres mapped to their nodes on the nominal length.
+
+        Returns
+        -------
+        stations : dict of str -> float
+        suspension : tuple of float or None
+            None: the plant's default suspension points.
+
+        Raises
+        ------
+        ModelError
+            A position is off the beam or farther than ``node_tolerance_m`` from a node
+            (a campaign file reports this with its key when it is loaded).
+        """
+        return _plant_positions(self.model_dump_json())
+
+    def plant_options(self) -> dict[str, Any]:
+        """Keyword options of :func:`truthbench.plants.make_plant` for this plant."""
+        stations, suspension = self.resolved_positions()
+        options = dict(n_elements=self.n_elements, n_groups=self.n_groups,
+                       stations=stations, section=self.section, material=self.material)
+        if suspension is not None:
+            options["suspension_fractions"] = suspension
+        return options
+
+
+def _base_plant(plant: PlantSpec):
+    """The plant with only its fraction stations and default suspension: the mesh on
+    which positions in metres are located."""
+    from truthbench.plants import make_plant
+
+    return make_plant(plant.type, n_elements=plant.n_elements, n_groups=plant.n_groups,
+                      stations={k: v for k, v in plant.stations.items()
+                                if not isinstance(v, StationPosition)},
+                      section=plant.section, material=plant.material)
+
+
+@functools.lru_cache(maxsize=64)
+def _plant_positions(plant_json: str) -> tuple[dict[str, float], tuple[float, ...] | None]:
+    plant = PlantSpec.model_validate_json(plant_json)
+    metres = [v for v in plant.stations.values() if isinstance(v, StationPosition)]
+    if not metres and plant.suspension_x_m is None:
+        return dict(plant.stations), None
+    base = _base_plant(plant)
+    tol = plant.node_tolerance_m
+    stations = {k: (base.fraction_at_m(v.x_m, plant.parameters, tolerance_m=tol)
+                    if isinstance(v, StationPosition) else v)
+                for k, v in plant.stations.items()}
+    suspension = None if plant.suspension_x_m is None else tuple(
+        base.fraction_at_m(x, plant.parameters, tolerance_m=tol) for x in plant.suspension_x_m)
+    return stations, suspension
+
+
+def position_station_name(x_m: float) -> str:
+    """The station name given to a sensor or actuator placed by position: ``x`` then the
+    position in millimetres (up to 6 decimals, trailing zeros dropped) with the decimal
+    point written ``p``, then ``mm``; a minus sign (a position just before the first end,
+    within the tolerance) is written ``m``. Only ``[a-z0-9]``: safe in channel labels and
+    file formats. ``0.05`` -> ``x50mm``, ``0.0125`` -> ``x12p5mm``, ``1.1`` ->
+    ``x1100mm``."""
+    mm = f"{x_m * 1000.0:.6f}".rstrip("0").rstrip(".")
+    if mm in ("-0", ""):
+        mm = "0"
+    return "x" + mm.replace("-", "m").replace(".", "p") + "mm"
 
 
 class TruthSpec(_Strict):
@@ -160,11 +334,11 @@ class CampaignSpec(_Strict):
     source: str = "<memory>"
 
     def make_plant(self):
-        """The plant builder of this campaign."""
+        """The plant builder of this campaign (section, material, stations and suspension
+        points as node fractions)."""
         from truthbench.plants import make_plant
 
-        return make_plant(self.plant.type, n_elements=self.plant.n_elements,
-                          n_groups=self.plant.n_groups, stations=dict(self.plant.stations))
+        return make_plant(self.plant.type, **self.plant.plant_options())
 
     def nominal_parameters(self) -> dict[str, float]:
         return self.make_plant().resolve(self.plant.parameters)
@@ -248,6 +422,7 @@ def parse_campaign(data: dict, source: str = "<memory>") -> CampaignSpec:
         spec = CampaignSpec.model_validate({**data, "source": source})
     except ValidationError as err:
         raise CampaignError(_format_validation_error(source, err)) from None
+    spec = _place_by_position(spec)
     _check_references(spec)
     return spec
 
@@ -266,6 +441,116 @@ def load_campaign(path: str | Path) -> CampaignSpec:
     return parse_campaign(data, str(path))
 
 
+def _place_by_position(spec: CampaignSpec) -> CampaignSpec:
+    """Locate every position in metres on the nominal mesh and place the sensors and
+    actuators given by ``x_m`` at generated stations (:func:`position_station_name`),
+    which join ``[plant] stations`` as ``{ x_m = ... }``.
+
+    Raises
+    ------
+    CampaignError
+        Naming the file and the key of a position that is off the beam or not on a node
+        (with the nearest node, the distance and element counts that would put a node
+        there), ``suspension_x_m`` for a plant without suspension, or a generated station
+        name that is already a station elsewhere.
+    """
+    src, plant = spec.source, spec.plant
+    positions = [(f"plant.stations.{k}.x_m", v.x_m) for k, v in plant.stations.items()
+                 if isinstance(v, StationPosition)]
+    positions += [(f"plant.suspension_x_m[{i}]", x)
+                  for i, x in enumerate(plant.suspension_x_m or ())]
+    positions += [(f"sensors[{i}].x_m", s.x_m) for i, s in enumerate(spec.sensors)
+                  if s.x_m is not None]
+    for j, t in enumerate(spec.tests):
+        positions += [(f"tests[{j}].sensors[{i}].x_m", s.x_m)
+                      for i, s in enumerate(t.sensors or []) if s.x_m is not None]
+        positions += [(f"tests[{j}].actuators[{i}].x_m", a.x_m)
+                      for i, a in enumerate(t.actuators) if a.x_m is not None]
+    if not positions:
+        return spec
+    try:
+        base = _base_plant(plant)
+    except ModelError as exc:
+        raise CampaignError(f"{src}: key 'plant': {exc}") from None
+    known = set(base.parameter_names())
+    for key in plant.parameters:  # as _check_references would report them
+        if key not in known:
+            raise CampaignError(f"{src}: key 'plant.parameters.{key}': "
+                                f"{base._unknown_parameter(key, known)}; got {key!r}")
+    try:
+        base.resolve(plant.parameters)
+    except ModelError as exc:
+        raise CampaignError(f"{src}: key 'plant.parameters': {exc}") from None
+    if plant.suspension_x_m is not None and not hasattr(base, "suspension_nodes"):
+        raise CampaignError(f"{src}: key 'plant.suspension_x_m': {plant.type} has no "
+                            f"suspension; expected no suspension_x_m (it belongs to a "
+                            f"free_free_beam), got {plant.suspension_x_m}")
+    nodes = {}
+    for key, x in positions:
+        try:
+            nodes[key] = base.node_at_m(x, plant.parameters,
+                                        tolerance_m=plant.node_tolerance_m)
+        except ModelError as exc:
+            raise CampaignError(f"{src}: key '{key}': {exc}") from None
+
+    stations = dict(plant.stations)
+
+    def station_node(name):
+        value = stations.get(name, base.default_stations.get(name))
+        if isinstance(value, StationPosition):
+            return nodes[f"plant.stations.{name}.x_m"]
+        pos = value * plant.n_elements
+        return round(pos) if abs(pos - round(pos)) <= 1e-9 else None
+
+    def place(item, key):
+        if item.x_m is None:
+            return item
+        name = position_station_name(item.x_m)
+        if name in stations or name in base.default_stations:
+            if station_node(name) != nodes[key]:
+                raise CampaignError(
+                    f"{src}: key '{key}': the position {item.x_m:g} m gets the station name "
+                    f"{name!r}, which already names another point; expected no station "
+                    f"called {name!r} in [plant] stations, got one")
+        else:
+            stations[name] = StationPosition(x_m=item.x_m)
+        return item.model_copy(update={"station": name, "x_m": None})
+
+    sensors = [place(s, f"sensors[{i}].x_m") for i, s in enumerate(spec.sensors)]
+    tests = []
+    for j, t in enumerate(spec.tests):
+        update = {"actuators": [place(a, f"tests[{j}].actuators[{i}].x_m")
+                                for i, a in enumerate(t.actuators)]}
+        if t.sensors is not None:
+            update["sensors"] = [place(s, f"tests[{j}].sensors[{i}].x_m")
+                                 for i, s in enumerate(t.sensors)]
+        tests.append(t.model_copy(update=update))
+    return spec.model_copy(update={"plant": plant.model_copy(update={"stations": stations}),
+                                   "sensors": sensors, "tests": tests})
+
+
+def _check_geometry_effects(spec: CampaignSpec, plant) -> None:
+    """A geometry effect may only change dimensions the plant's section has."""
+    from truthbench.effects.structural import _DIMENSION_RELS
+    from truthbench.fe.beam import SECTIONS
+
+    dims = SECTIONS[plant.section].dimensions
+    entries = [(f"truth.effects[{k}]", e) for k, e in enumerate(spec.truth_effects())]
+    for j in range(len(spec.tests)):
+        entries += [(f"tests[{j}].effects[{k}]", e) for k, e in enumerate(spec.test_effects(j))]
+    for where, eff in entries:
+        if eff.name != "geometry":
+            continue
+        for rel, dim in _DIMENSION_RELS:
+            d = eff.distributions[rel]
+            if dim not in dims and (d.mean != 0.0 or d.std != 0.0):
+                raise CampaignError(
+                    f"{spec.source}: key '{where}.parameters.{rel}': {rel!r} scales {dim!r}, "
+                    f"which the {plant.section} section does not have; expected one of "
+                    f"{', '.join(r for r, m in _DIMENSION_RELS if m in dims)} (or 'L_rel'), "
+                    f"got {rel!r} with mean {d.mean:g} and std {d.std:g}")
+
+
 def _check_references(spec: CampaignSpec) -> None:
     src = spec.source
     try:
@@ -276,8 +561,8 @@ def _check_references(spec: CampaignSpec) -> None:
 
     def check_param(key: str, where: str):
         if key not in known:
-            raise CampaignError(f"{src}: key '{where}': {spec.plant.type} has no parameter "
-                                f"{key!r}; expected one of {', '.join(sorted(known))}")
+            raise CampaignError(f"{src}: key '{where}': "
+                                f"{plant._unknown_parameter(key, known)}; got {key!r}")
 
     for key in spec.plant.parameters:
         check_param(key, f"plant.parameters.{key}")
@@ -296,6 +581,7 @@ def _check_references(spec: CampaignSpec) -> None:
                 plant.station_node(eff.options["station"])
             except ModelError as exc:
                 raise CampaignError(f"{src}: effect {eff.name!r}: {exc}") from None
+    _check_geometry_effects(spec, plant)
     from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater
 
     for key in spec.update.parameters:

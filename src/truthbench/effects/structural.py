@@ -43,18 +43,39 @@ class Material(Effect):
             _scale(setup, par, options["group"], values[key])
 
 
+#: Geometry's relative errors and the section dimension each scales.
+_DIMENSION_RELS = (("r_rel", "r_m"), ("t_rel", "t_m"), ("b_rel", "b_m"), ("h_rel", "h_m"),
+                   ("d_rel", "d_m"))
+
+
 @register_effect
 class Geometry(Effect):
     name: ClassVar[str] = "geometry"
-    description: ClassVar[str] = "tube radius, wall thickness and length differ from nominal"
+    description: ClassVar[str] = ("the section's dimensions (tube r, t; rectangular bar b, h; "
+                                  "circular bar d) and the length differ from nominal")
+    # new parameters go at the end: draws of the earlier ones stay as they were
     params: ClassVar = (EffectParam("r_rel", 0.0, "relative error of the mean radius", -0.9),
                         EffectParam("t_rel", 0.0, "relative error of the wall thickness", -0.9),
-                        EffectParam("L_rel", 0.0, "relative error of the length", -0.9))
+                        EffectParam("L_rel", 0.0, "relative error of the length", -0.9),
+                        EffectParam("b_rel", 0.0, "relative error of a bar's width", -0.9),
+                        EffectParam("h_rel", 0.0, "relative error of a bar's height", -0.9),
+                        EffectParam("d_rel", 0.0, "relative error of a bar's diameter", -0.9))
     options: ClassVar = {"group": "all"}
 
     def contribute(self, values, options, setup):
-        for key, par in (("r_rel", "r_m"), ("t_rel", "t_m")):
-            _scale(setup, par, options["group"], values[key])
+        from truthbench.fe.beam import SECTIONS
+
+        section = setup.plant.section
+        dims = SECTIONS[section].dimensions
+        for key, par in _DIMENSION_RELS:
+            if par in dims:
+                _scale(setup, par, options["group"], values[key])
+            elif values[key] != 0.0:
+                raise ModelError(
+                    f"effect 'geometry': parameter {key!r} = {values[key]:g} scales {par!r}, "
+                    f"which the {section} section does not have; expected 0 (the section's "
+                    f"dimensions are {', '.join(dims)}: use "
+                    f"{', '.join(k for k, p in _DIMENSION_RELS if p in dims)})")
         if options["group"] == "all":
             setup.scale_parameter("L_m", 1.0 + values["L_rel"])
         else:

@@ -1,8 +1,9 @@
-"""Assembly of meshed tube members into global M, C, K.
+"""Assembly of meshed beam members into global M, C, K.
 
 A :class:`BeamMesh` holds node coordinates, two-node elements and the element group of
-each element; :func:`assemble` turns it, with per-group material and section values,
-into sparse global stiffness and mass matrices (6 DOFs per node, global axes).
+each element; :func:`assemble` turns it, with per-group material and section values
+(any cross-section of :data:`~truthbench.fe.beam.SECTIONS`), into sparse global
+stiffness and mass matrices (6 DOFs per node, global axes).
 :func:`finish_structure` adds lumped masses and rotary inertias, grounded springs and
 dashpots at any DOF, and removes clamped DOFs.
 
@@ -18,7 +19,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from truthbench.fe.beam import (
+    SECTIONS,
     element_matrices,
+    is_section,
+    make_section,
     rotation_matrices,
     sag_rotations,
 )
@@ -26,8 +30,33 @@ from truthbench.fe.beam import (
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 """Names of the six nodal DOFs, in order."""
 
-SECTION_KEYS = ("E_pa", "nu", "rho_kg_m3", "r_m", "t_m")
-"""The per-group element properties :func:`assemble` needs."""
+MATERIAL_KEYS = ("E_pa", "nu", "rho_kg_m3")
+"""The per-group material properties :func:`assemble` needs (besides the section)."""
+
+DEFAULT_SECTION = "tube"
+"""The section of a group whose properties name none (the chapter's tube, Eq. 10.4)."""
+
+
+def group_section(props: Mapping[str, object], group: str = "?"):
+    """The cross-section of one group's properties.
+
+    ``props["section"]`` is a section object (:func:`~truthbench.fe.beam.is_section`) or
+    a section name of :data:`~truthbench.fe.beam.SECTIONS` whose dimensions are further
+    keys of ``props`` (``{"section": "rectangular_bar", "b_m": 0.03, "h_m": 0.01}``);
+    without a ``"section"`` key the group is a tube with ``r_m`` and ``t_m``.
+
+    Raises
+    ------
+    ValueError
+        Naming the group: unknown section, missing or bad dimension.
+    """
+    sec = props.get("section", DEFAULT_SECTION)
+    if is_section(sec):
+        return sec
+    try:
+        return make_section(sec, props)
+    except ValueError as exc:
+        raise ValueError(f"element group {group!r}: {exc}") from None
 
 
 def direction_index(direction: str) -> int:
@@ -42,7 +71,7 @@ def direction_index(direction: str) -> int:
 
 @dataclass(frozen=True)
 class BeamMesh:
-    """Nodes and two-node elements of a frame of tube members.
+    """Nodes and two-node elements of a frame of beam members.
 
     Parameters
     ----------
@@ -142,7 +171,9 @@ def assemble(
     ----------
     mesh : BeamMesh
     properties : mapping of group name -> mapping
-        For every group, the keys of :data:`SECTION_KEYS` (E_pa, nu, rho_kg_m3, r_m, t_m).
+        For every group, the keys of :data:`MATERIAL_KEYS` (E_pa, nu, rho_kg_m3) and the
+        section: ``"section"`` (a section object or name) with the section's dimensions,
+        or, for a tube, just ``r_m`` and ``t_m`` (see :func:`group_section`).
     timoshenko : bool
         Use the shear-deformable element with rotary inertia.
     sag_angles_rad : ndarray, shape (n_elements,), optional
@@ -168,17 +199,23 @@ def assemble(
     lengths = mesh.element_lengths_m
     k_loc = np.empty((n_el, 12, 12))
     m_loc = np.empty((n_el, 12, 12))
+    group_keys = {}
+    for g in mesh.group_names():
+        props = properties[g]
+        try:
+            material = tuple(float(props[k]) for k in MATERIAL_KEYS)
+        except KeyError as exc:
+            raise ValueError(f"element group {g!r} lacks property {exc.args[0]!r}; "
+                             f"expected keys {MATERIAL_KEYS} and a section (one of "
+                             f"{', '.join(SECTIONS)})") from None
+        group_keys[g] = material + (group_section(props, g),)
     cache: dict = {}
     for e in range(n_el):
-        props = properties[mesh.groups[e]]
-        try:
-            key = tuple(float(props[k]) for k in SECTION_KEYS) + (round(lengths[e], 12),)
-        except KeyError as exc:
-            raise ValueError(f"element group {mesh.groups[e]!r} lacks property {exc.args[0]!r}; "
-                             f"expected keys {SECTION_KEYS}") from None
+        key = group_keys[mesh.groups[e]] + (round(lengths[e], 12),)
         if key not in cache:
-            E, nu, rho, r, t, _ = key
-            cache[key] = element_matrices(E, nu, rho, r, t, lengths[e], timoshenko=timoshenko)
+            E, nu, rho, section, _ = key
+            cache[key] = element_matrices(E, nu, rho, section, lengths[e],
+                                          timoshenko=timoshenko)
         k_loc[e], m_loc[e] = cache[key]
     na, nb = mesh.elements[:, 0], mesh.elements[:, 1]
     R = rotation_matrices(mesh.nodes_m[nb] - mesh.nodes_m[na], up_vector)  # (n_el, 3, 3)

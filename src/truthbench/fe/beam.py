@@ -1,4 +1,4 @@
-"""The 12-DOF 3D tube beam element (METHOD section 2, Eq. 10.1-10.4).
+"""The 12-DOF 3D beam element and its cross-sections (METHOD section 2, Eq. 10.1-10.4).
 
 DOF order at each end: ``u1`` axial (local x), ``u2``, ``u3`` transverse (local y, z),
 ``u4`` torsion about x, ``u5``, ``u6`` rotations about y and z. The element vector is
@@ -6,20 +6,116 @@ DOF order at each end: ``u1`` axial (local x), ``u2``, ``u3`` transverse (local 
 
 Bending uses cubic Hermite shape functions (Euler-Bernoulli), axial and torsion linear
 shape functions, and the mass matrix is consistent. An optional Timoshenko form adds
-shear deformation (shear coefficient of a thin-walled tube, 0.5) and the rotary inertia
-of the cross-section; the truth simulator uses it as "correct element physics" against
-an Euler-Bernoulli model.
+shear deformation (with the section's shear coefficient) and the rotary inertia of the
+cross-section; the truth simulator uses it as "correct element physics" against an
+Euler-Bernoulli model.
+
+Cross-sections
+--------------
+A section is a small frozen object with the properties the element needs (the
+:class:`Section` protocol); :data:`SECTIONS` registers them by name:
+
+``"tube"`` (:class:`TubeSection`)
+    thin-walled circular tube, mean radius ``r_m``, wall ``t_m`` (Eq. 10.4);
+``"rectangular_bar"`` (:class:`RectangularBarSection`)
+    solid rectangle, width ``b_m`` along local y, height ``h_m`` along local z;
+``"circular_bar"`` (:class:`CircularBarSection`)
+    solid circle, diameter ``d_m``.
+
+``second_moment_y_m4`` (about local y) governs bending in the x-z plane (``u3``, ``u5``),
+``second_moment_z_m4`` bending in the x-y plane (``u2``, ``u6``). The torsional stiffness
+is ``G J`` with the Saint-Venant torsion constant ``J``; the torsional inertia is
+``rho I_p`` with the polar moment of area ``I_p = I_y + I_z`` (equal to ``J`` only for
+circular sections).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import ClassVar, Protocol
 
 import numpy as np
 
 #: Shear coefficient of a thin-walled circular tube (Cowper: 2(1+nu)/(4+3nu) ~ 0.53;
 #: 0.5 is the classical thin-wall value).
 THIN_TUBE_SHEAR_COEFFICIENT = 0.5
+
+#: sum over odd n of 1/n^5 = (1 - 2^-5) zeta(5), zeta(5) = 1.0369277551433699...
+_ODD_ZETA5 = (31.0 / 32.0) * 1.0369277551433699263
+
+
+class Section(Protocol):
+    """What the element needs of a cross-section (all SI: m, m^2, m^4).
+
+    Attributes
+    ----------
+    kind : str
+        Registry name (:data:`SECTIONS`).
+    dimensions : tuple of str
+        Names of the dimension fields, with units (``"r_m"``, ``"b_m"``, ...); these are
+        also the plant parameter names.
+    area_m2 : float
+        Cross-section area ``A``.
+    second_moment_y_m4, second_moment_z_m4 : float
+        Second moments of area about local y (bending in x-z) and local z (bending in
+        x-y).
+    torsion_constant_m4 : float
+        Saint-Venant torsion constant ``J`` (torsional stiffness ``G J / L``).
+    polar_moment_m4 : float
+        Polar moment of area ``I_p = I_y + I_z`` (torsional inertia ``rho I_p``).
+    """
+
+    kind: ClassVar[str]
+    dimensions: ClassVar[tuple[str, ...]]
+
+    @property
+    def area_m2(self) -> float: ...
+
+    @property
+    def second_moment_y_m4(self) -> float: ...
+
+    @property
+    def second_moment_z_m4(self) -> float: ...
+
+    @property
+    def torsion_constant_m4(self) -> float: ...
+
+    @property
+    def polar_moment_m4(self) -> float: ...
+
+    def shear_coefficient(self, nu: float) -> float:
+        """Timoshenko shear coefficient ``kappa`` (shear area ``kappa A``)."""
+
+    def outer_fibre_m(self, direction: str) -> float:
+        """Distance from the centroid to the outer surface on the +``direction`` side
+        (``"y"`` or ``"z"``), m: where a bending strain gauge sits."""
+
+
+_SECTION_MEMBERS = ("kind", "dimensions", "area_m2", "second_moment_y_m4",
+                    "second_moment_z_m4", "torsion_constant_m4", "polar_moment_m4",
+                    "shear_coefficient", "outer_fibre_m")
+
+
+def is_section(obj) -> bool:
+    """Whether ``obj`` has every member of the :class:`Section` protocol (looked up on its
+    type, so no property is evaluated)."""
+    return all(hasattr(type(obj), name) for name in _SECTION_MEMBERS)
+
+
+def _check_dimensions(section) -> None:
+    for f in fields(section):
+        value = getattr(section, f.name)
+        if isinstance(value, bool) or not isinstance(value, int | float | np.floating) \
+                or not np.isfinite(value) or value <= 0:
+            raise ValueError(f"{section.kind} section: '{f.name}' must be a positive finite "
+                             f"number (m); got {value!r}")
+
+
+def _check_direction(direction: str) -> None:
+    if direction not in ("y", "z"):
+        raise ValueError(f"outer fibre: direction must be 'y' or 'z' (a bending direction); "
+                         f"got {direction!r}")
 
 
 @dataclass(frozen=True)
@@ -32,10 +128,21 @@ class TubeSection:
         Mean radius of the wall, m.
     t_m : float
         Wall thickness, m.
+
+    Notes
+    -----
+    ``A = 2 pi r t``, ``I_y = I_z = pi r^3 t``, ``J = I_p = 2 pi r^3 t`` (thin wall), shear
+    coefficient 0.5 (:data:`THIN_TUBE_SHEAR_COEFFICIENT`), outer fibre ``r + t/2``.
     """
 
     r_m: float
     t_m: float
+
+    kind: ClassVar[str] = "tube"
+    dimensions: ClassVar[tuple[str, ...]] = ("r_m", "t_m")
+
+    def __post_init__(self):
+        _check_dimensions(self)
 
     @property
     def area_m2(self) -> float:
@@ -47,15 +154,190 @@ class TubeSection:
         """Area moment of inertia about either bending axis ``I = pi r^3 t``, m^4."""
         return np.pi * self.r_m**3 * self.t_m
 
+    second_moment_y_m4 = second_moment_m4
+    second_moment_z_m4 = second_moment_m4
+
     @property
     def polar_moment_m4(self) -> float:
-        """Polar (torsion) constant ``J = 2 pi r^3 t``, m^4."""
+        """Polar moment ``I_p = 2 pi r^3 t`` (equal to the torsion constant), m^4."""
         return 2.0 * np.pi * self.r_m**3 * self.t_m
+
+    torsion_constant_m4 = polar_moment_m4
 
     @property
     def outer_radius_m(self) -> float:
         """Outer surface radius ``r + t/2``, m (where surface strain is read)."""
         return self.r_m + 0.5 * self.t_m
+
+    def shear_coefficient(self, nu: float) -> float:
+        """0.5 for any ``nu`` (the thin-wall value)."""
+        return THIN_TUBE_SHEAR_COEFFICIENT
+
+    def outer_fibre_m(self, direction: str) -> float:
+        """``r + t/2`` in both bending directions, m."""
+        _check_direction(direction)
+        return self.outer_radius_m
+
+
+@dataclass(frozen=True)
+class RectangularBarSection:
+    """Solid rectangular bar.
+
+    Parameters
+    ----------
+    b_m : float
+        Width along local y, m.
+    h_m : float
+        Height along local z, m (along global z, vertical, for a beam along global x).
+
+    Notes
+    -----
+    ``A = b h``; ``I_y = b h^3 / 12`` (bending in the x-z plane), ``I_z = h b^3 / 12``;
+    ``I_p = I_y + I_z``. The torsion constant is the Saint-Venant series for a rectangle
+    of long side ``a`` and short side ``c`` (Timoshenko and Goodier, *Theory of
+    Elasticity*, 3rd ed., 1970, Sect. 109)::
+
+        J = a c^3 / 3 * (1 - 192 c / (pi^5 a) * sum_{n odd} tanh(n pi a / (2 c)) / n^5)
+
+    summed exactly: ``sum 1/n^5 = (31/32) zeta(5)`` less ``sum (1 - tanh) / n^5``, whose
+    terms fall as ``exp(-n pi a / c)`` (13 terms reach double precision). Roark's
+    approximation ``J = a c^3 (1/3 - 0.21 (c/a)(1 - c^4 / (12 a^4)))`` (Young and Budynas,
+    *Roark's Formulas for Stress and Strain*, 7th ed., Table 10.7 case 4) agrees within
+    0.5 % (largest near a/c = 1.14). Shear coefficient: Cowper (1966),
+    ``10 (1 + nu) / (12 + 11 nu)``.
+    """
+
+    b_m: float
+    h_m: float
+
+    kind: ClassVar[str] = "rectangular_bar"
+    dimensions: ClassVar[tuple[str, ...]] = ("b_m", "h_m")
+
+    def __post_init__(self):
+        _check_dimensions(self)
+
+    @property
+    def area_m2(self) -> float:
+        """``A = b h``, m^2."""
+        return self.b_m * self.h_m
+
+    @property
+    def second_moment_y_m4(self) -> float:
+        """``I_y = b h^3 / 12`` (bending in the x-z plane), m^4."""
+        return self.b_m * self.h_m**3 / 12.0
+
+    @property
+    def second_moment_z_m4(self) -> float:
+        """``I_z = h b^3 / 12`` (bending in the x-y plane), m^4."""
+        return self.h_m * self.b_m**3 / 12.0
+
+    @property
+    def polar_moment_m4(self) -> float:
+        """``I_p = I_y + I_z``, m^4."""
+        return self.second_moment_y_m4 + self.second_moment_z_m4
+
+    @property
+    def torsion_constant_m4(self) -> float:
+        """Saint-Venant torsion constant (series, see class notes), m^4."""
+        return rectangle_torsion_constant(self.b_m, self.h_m)
+
+    def shear_coefficient(self, nu: float) -> float:
+        """Cowper's ``10 (1 + nu) / (12 + 11 nu)``."""
+        return 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
+
+    def outer_fibre_m(self, direction: str) -> float:
+        """``b / 2`` along y, ``h / 2`` along z, m."""
+        _check_direction(direction)
+        return 0.5 * (self.b_m if direction == "y" else self.h_m)
+
+
+@dataclass(frozen=True)
+class CircularBarSection:
+    """Solid circular bar of diameter ``d_m``.
+
+    Notes
+    -----
+    ``A = pi d^2 / 4``, ``I_y = I_z = pi d^4 / 64``, ``J = I_p = pi d^4 / 32``; shear
+    coefficient: Cowper (1966), ``6 (1 + nu) / (7 + 6 nu)``; outer fibre ``d / 2``.
+    """
+
+    d_m: float
+
+    kind: ClassVar[str] = "circular_bar"
+    dimensions: ClassVar[tuple[str, ...]] = ("d_m",)
+
+    def __post_init__(self):
+        _check_dimensions(self)
+
+    @property
+    def area_m2(self) -> float:
+        """``A = pi d^2 / 4``, m^2."""
+        return np.pi * self.d_m**2 / 4.0
+
+    @property
+    def second_moment_y_m4(self) -> float:
+        """``I = pi d^4 / 64``, m^4."""
+        return np.pi * self.d_m**4 / 64.0
+
+    second_moment_z_m4 = second_moment_y_m4
+
+    @property
+    def polar_moment_m4(self) -> float:
+        """``I_p = J = pi d^4 / 32``, m^4."""
+        return np.pi * self.d_m**4 / 32.0
+
+    torsion_constant_m4 = polar_moment_m4
+
+    def shear_coefficient(self, nu: float) -> float:
+        """Cowper's ``6 (1 + nu) / (7 + 6 nu)``."""
+        return 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu)
+
+    def outer_fibre_m(self, direction: str) -> float:
+        """``d / 2``, m."""
+        _check_direction(direction)
+        return 0.5 * self.d_m
+
+
+#: The cross-sections by name (the campaign's ``[plant] section``).
+SECTIONS: dict[str, type] = {cls.kind: cls for cls in (TubeSection, RectangularBarSection,
+                                                       CircularBarSection)}
+
+
+def rectangle_torsion_constant(b_m: float, h_m: float) -> float:
+    """Saint-Venant torsion constant of a solid ``b x h`` rectangle, m^4.
+
+    The series of :class:`RectangularBarSection` (Timoshenko and Goodier, Sect. 109),
+    exact to rounding; symmetric in ``b`` and ``h``.
+    """
+    a, c = max(b_m, h_m), min(b_m, h_m)
+    n = np.arange(1.0, 40.0, 2.0)
+    x = n * np.pi * a / (2.0 * c)
+    # 1 - tanh(x) = 2 / (exp(2x) + 1), without cancellation; exp overflow -> 0 is exact
+    with np.errstate(over="ignore"):
+        defect = np.sum(2.0 / (np.exp(2.0 * x) + 1.0) / n**5)
+    series = _ODD_ZETA5 - defect
+    return a * c**3 / 3.0 * (1.0 - 192.0 * c / (np.pi**5 * a) * series)
+
+
+def make_section(kind: str, dimensions: Mapping[str, float]) -> Section:
+    """The section ``kind`` (:data:`SECTIONS`) from a mapping holding its dimensions.
+
+    Extra keys in ``dimensions`` (material values, say) are ignored.
+
+    Raises
+    ------
+    ValueError
+        Unknown ``kind``, a missing dimension, or a non-positive one.
+    """
+    if kind not in SECTIONS:
+        raise ValueError(f"'section' must be one of {', '.join(map(repr, SECTIONS))}; "
+                         f"got {kind!r}")
+    cls = SECTIONS[kind]
+    missing = [d for d in cls.dimensions if d not in dimensions]
+    if missing:
+        raise ValueError(f"{kind} section needs {', '.join(cls.dimensions)}; missing "
+                         f"{', '.join(missing)}")
+    return cls(**{d: float(dimensions[d]) for d in cls.dimensions})
 
 
 def shear_modulus(E_pa: float, nu: float) -> float:
@@ -118,13 +400,12 @@ def element_matrices(
     E_pa: float,
     nu: float,
     rho_kg_m3: float,
-    r_m: float,
-    t_m: float,
+    section: Section,
     L_m: float,
     *,
     timoshenko: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Local stiffness and consistent mass of one tube element.
+    """Local stiffness and consistent mass of one beam element.
 
     Parameters
     ----------
@@ -134,28 +415,34 @@ def element_matrices(
         Poisson's ratio (G = E / (2 (1 + nu))).
     rho_kg_m3 : float
         Density, kg/m^3.
-    r_m, t_m : float
-        Mean radius and wall thickness of the tube, m.
+    section : Section
+        The cross-section (:class:`TubeSection`, :class:`RectangularBarSection`,
+        :class:`CircularBarSection`, or any object with the :class:`Section` properties).
     L_m : float
         Element length, m.
     timoshenko : bool, optional
-        Add shear deformation and rotary inertia (default Euler-Bernoulli, the
-        chapter's element).
+        Add shear deformation (shear coefficient ``section.shear_coefficient(nu)``) and
+        rotary inertia (default Euler-Bernoulli, the chapter's element).
 
     Returns
     -------
     k, m : ndarray, shape (12, 12)
-        Stiffness (N/m, N, N m) and mass (kg, kg m, kg m^2) in local axes.
+        Stiffness (N/m, N, N m) and mass (kg, kg m, kg m^2) in local axes. Bending in the
+        x-y plane (u2, u6) uses ``I_z``, in the x-z plane (u3, u5) ``I_y``; torsion
+        stiffness ``G J / L``, torsional inertia ``rho I_p L``.
     """
-    for name, value in (("E_pa", E_pa), ("rho_kg_m3", rho_kg_m3), ("r_m", r_m),
-                        ("t_m", t_m), ("L_m", L_m)):
+    for name, value in (("E_pa", E_pa), ("rho_kg_m3", rho_kg_m3), ("L_m", L_m)):
         if not np.isfinite(value) or value <= 0:
             raise ValueError(f"element parameter {name!r} must be a positive finite number; "
                              f"got {value!r}")
     if not -1.0 < nu < 0.5:
         raise ValueError(f"element parameter 'nu' must lie in (-1, 0.5); got {nu!r}")
-    sec = TubeSection(r_m, t_m)
-    A, I, J = sec.area_m2, sec.second_moment_m4, sec.polar_moment_m4
+    if not is_section(section):
+        raise ValueError(f"element parameter 'section' must be a cross-section (e.g. "
+                         f"TubeSection); got {type(section).__name__}")
+    A = section.area_m2
+    Iy, Iz = section.second_moment_y_m4, section.second_moment_z_m4
+    J, Ip = section.torsion_constant_m4, section.polar_moment_m4
     G = shear_modulus(E_pa, nu)
     L = L_m
     k = np.zeros((12, 12))
@@ -165,26 +452,32 @@ def element_matrices(
     lin_k = np.array([[1.0, -1.0], [-1.0, 1.0]])
     lin_m = np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0
     for dofs, stiff, inertia in (((0, 6), E_pa * A / L, rho_kg_m3 * A * L),
-                                 ((3, 9), G * J / L, rho_kg_m3 * J * L)):
+                                 ((3, 9), G * J / L, rho_kg_m3 * Ip * L)):
         ix = np.ix_(dofs, dofs)
         k[ix] = stiff * lin_k
         m[ix] = inertia * lin_m
 
-    phi = 0.0
-    rhoI = 0.0
-    if timoshenko:
-        phi = 12.0 * E_pa * I / (THIN_TUBE_SHEAR_COEFFICIENT * G * A * L**2)
-        rhoI = rho_kg_m3 * I
-    kb, mb = _bending_blocks(E_pa * I, rho_kg_m3 * A, L, rhoI, phi)
+    kappa = section.shear_coefficient(nu) if timoshenko else 0.0
+
+    def plane(I):
+        phi = 0.0
+        rhoI = 0.0
+        if timoshenko:
+            phi = 12.0 * E_pa * I / (kappa * G * A * L**2)
+            rhoI = rho_kg_m3 * I
+        return _bending_blocks(E_pa * I, rho_kg_m3 * A, L, rhoI, phi)
+
+    kb_z, mb_z = plane(Iz)
+    kb_y, mb_y = (kb_z, mb_z) if Iy == Iz else plane(Iy)
     # x-y plane: v = u2, theta_z = u6 = +dv/dx
     ixy = np.ix_((1, 5, 7, 11), (1, 5, 7, 11))
-    k[ixy] = kb
-    m[ixy] = mb
+    k[ixy] = kb_z
+    m[ixy] = mb_z
     # x-z plane: w = u3, theta_y = u5 = -dw/dx, so flip the rotation signs
     flip = np.diag([1.0, -1.0, 1.0, -1.0])
     ixz = np.ix_((2, 4, 8, 10), (2, 4, 8, 10))
-    k[ixz] = flip @ kb @ flip
-    m[ixz] = flip @ mb @ flip
+    k[ixz] = flip @ kb_y @ flip
+    m[ixz] = flip @ mb_y @ flip
     return k, m
 
 

@@ -1,36 +1,78 @@
-"""What every plant shares: parameters, stations, actuators, sensors, the registry.
+"""What every plant shares: parameters, sections, materials, stations, actuators, sensors.
 
 A plant is a parametric builder: ``plant.build(params, actuators, sensors)`` returns a
 :class:`~truthbench.model.StructuralModel`. Parameters are a flat mapping of named
 physical values with units in the names (``E_pa``, ``rho_kg_m3``, ...). Element-group
 values are written ``name@group`` (``E_pa@g2``) and fall back to the plain name.
 
-Stations are named points along the beam, given as a fraction of its length; each must
-fall on a node of the mesh. Sensors and actuators are placed at stations.
+The cross-section (``section``: ``"tube"``, ``"rectangular_bar"``, ``"circular_bar"``,
+:data:`~truthbench.fe.beam.SECTIONS`) decides which dimension parameters the plant has
+(:data:`SECTION_PARAMETERS`: ``r_m``, ``t_m``; ``b_m``, ``h_m``; ``d_m``); the
+``material`` preset (:data:`MATERIALS`) gives the defaults of ``E_pa``, ``rho_kg_m3`` and
+``nu``. The tube's dimensions default to the nominal tube of METHOD section 9; a bar's
+dimensions have no default and must be given.
+
+Stations are named points along the beam, given as a fraction of the element count
+(node ``fraction * n_elements``; equal to the fraction of the length when the groups
+have equal lengths); each must fall on a node of the mesh. Sensors and actuators are
+placed at stations. Positions in metres along the beam (from its first end) map to
+nodes with :meth:`Plant.node_at_m` / :meth:`Plant.fraction_at_m`, within a tolerance
+(:data:`DEFAULT_NODE_TOLERANCE_M`); :meth:`Plant.node_coordinates_m` and
+:meth:`Plant.station_coordinates_m` give the coordinates of nodes and stations.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import ClassVar
 
 import numpy as np
 import scipy.sparse as sp
 
+from truthbench._validation import check_choice
 from truthbench.errors import ModelError
 from truthbench.fe.assembly import (
     DIRECTIONS,
+    MATERIAL_KEYS,
     BeamMesh,
     assemble,
     direction_index,
     finish_structure,
+    group_section,
 )
+from truthbench.fe.beam import SECTIONS
 
 SENSOR_QUANTITIES = ("displacement", "velocity", "acceleration", "strain")
-MATERIAL_KEYS = ("E_pa", "nu", "rho_kg_m3", "r_m", "t_m")
 
+#: Material presets: the defaults of ``E_pa``, ``rho_kg_m3`` and ``nu`` (explicit
+#: parameters override them).
+#:
+#: ``aluminium``: 6061-T6, typical values of the Aluminum Association (ASM Handbook
+#: Vol. 2; MatWeb "Aluminum 6061-T6"): E = 68.9 GPa, rho = 2700 kg/m^3, nu = 0.33 -- the
+#: chapter's nominal tube (METHOD section 9) and the default.
+#:
+#: ``steel``: plain carbon steel, E = 200 GPa, rho = 7850 kg/m^3, nu = 0.29 (Gere and
+#: Goodno, *Mechanics of Materials*, Appendix H: E = 190-210 GPa, nu = 0.27-0.30,
+#: 7850 kg/m^3; AS 1442 / AISI 1020: 200 GPa, 0.29).
+MATERIALS: dict[str, dict[str, float]] = {
+    "aluminium": {"E_pa": 68.9e9, "nu": 0.33, "rho_kg_m3": 2700.0},
+    "steel": {"E_pa": 200.0e9, "nu": 0.29, "rho_kg_m3": 7850.0},
+}
+DEFAULT_MATERIAL = "aluminium"
+DEFAULT_SECTION = "tube"
 
+#: A position in metres maps to a node no farther than this, m. Large enough for any
+#: decimal a user types for a node's position (rounding is ~1e-16 m), small enough that
+#: the mapped point moves by at most 0.1 mm: a mode-shape error below
+#: 2 pi (0.1 mm) / wavelength, 0.1 % for a 0.5 m bending wavelength.
+DEFAULT_NODE_TOLERANCE_M = 1e-4
+
+#: Element counts up to this are searched when a position misses every node.
+_MAX_SUGGESTED_ELEMENTS = 2000
+
+_MATERIAL_INFO = {"E_pa": ("Pa", "Young's modulus"), "nu": ("-", "Poisson's ratio"),
+                  "rho_kg_m3": ("kg/m^3", "density")}
 @dataclass(frozen=True)
 class Sensor:
     """A sensor at a station: direction x, y, z, rx, ry or rz; quantity one of
@@ -60,28 +102,67 @@ class Actuator:
 
 @dataclass(frozen=True)
 class ParameterInfo:
-    """A named plant parameter: its default value, unit, and whether it may be given
-    per element group."""
+    """A named plant parameter: its default value (None: required, no default), unit,
+    and whether it may be given per element group."""
 
-    default: float
+    default: float | None
     unit: str
     description: str
     per_group: bool = False
     positive: bool = True
 
 
+#: The dimension parameters of every section (units in the names), per element group.
+#: The tube's defaults are the nominal tube of METHOD section 9 (25.4 mm outside
+#: diameter, 1.65 mm wall); the bars' dimensions are required.
+SECTION_PARAMETERS: dict[str, dict[str, ParameterInfo]] = {
+    "tube": {
+        "r_m": ParameterInfo(0.0127 - 0.000825, "m", "mean wall radius", per_group=True),
+        "t_m": ParameterInfo(0.00165, "m", "wall thickness", per_group=True),
+    },
+    "rectangular_bar": {
+        "b_m": ParameterInfo(None, "m", "width along local y (horizontal)", per_group=True),
+        "h_m": ParameterInfo(None, "m", "height along local z (vertical)", per_group=True),
+    },
+    "circular_bar": {
+        "d_m": ParameterInfo(None, "m", "diameter", per_group=True),
+    },
+}
+assert all(tuple(SECTION_PARAMETERS[k]) == SECTIONS[k].dimensions for k in SECTIONS)
+
+
 @dataclass(frozen=True)
 class Plant:
-    """Base of the parametric plants. Subclasses define ``kind``, ``parameters``,
-    ``default_stations`` and ``_assemble``."""
+    """Base of the parametric plants. Subclasses define ``kind``, ``own_parameters``,
+    ``default_stations`` and ``_boundary``.
+
+    Parameters
+    ----------
+    n_elements : int
+        Elements along the beam (a multiple of ``n_groups``).
+    n_groups : int
+        Element groups (equal numbers of elements; material, section and length values
+        may differ per group).
+    stations : mapping of str -> float
+        Extra named stations, fraction of the element count (must fall on a node).
+    timoshenko : bool
+        Shear-deformable elements with rotary inertia.
+    section : str
+        Cross-section, one of :data:`~truthbench.fe.beam.SECTIONS` (default "tube").
+    material : str
+        Material preset of :data:`MATERIALS` giving the defaults of ``E_pa``,
+        ``rho_kg_m3`` and ``nu`` (default "aluminium").
+    """
 
     n_elements: int = 20
     n_groups: int = 1
     stations: Mapping[str, float] = field(default_factory=dict)
     timoshenko: bool = False
+    section: str = DEFAULT_SECTION
+    material: str = DEFAULT_MATERIAL
 
     kind: ClassVar[str] = "plant"
-    parameters: ClassVar[dict[str, ParameterInfo]] = {}
+    own_parameters: ClassVar[dict[str, ParameterInfo]] = {}
     default_stations: ClassVar[dict[str, float]] = {}
 
     def __post_init__(self):
@@ -93,10 +174,28 @@ class Plant:
         if self.n_elements % self.n_groups:
             raise ModelError(f"n_elements ({self.n_elements}) must be a multiple of n_groups "
                              f"({self.n_groups}) so that every group has whole elements")
+        check_choice("section", self.section, SECTIONS, where=self.kind, error=ModelError)
+        check_choice("material", self.material, MATERIALS, where=self.kind, error=ModelError)
         for name in self.stations:  # user stations must lie on nodes
             self.station_node(name)
 
     # ---- groups and parameters -------------------------------------------------
+    @property
+    def parameters(self) -> dict[str, ParameterInfo]:
+        """Every parameter of this plant, in order: material (defaults from the
+        ``material`` preset), the section's dimensions, length, modal damping, then the
+        plant's own (suspension, hub)."""
+        preset = MATERIALS[self.material]
+        table = {k: ParameterInfo(preset[k], *_MATERIAL_INFO[k], per_group=True)
+                 for k in MATERIAL_KEYS}
+        table.update(SECTION_PARAMETERS[self.section])
+        table["L_m"] = ParameterInfo(1.8, "m", "length (L_m@g: one group's segment)",
+                                     per_group=True)
+        table["modal_damping_ratio"] = ParameterInfo(
+            0.005, "-", "damping ratio of every elastic mode", positive=False)
+        table.update(self.own_parameters)
+        return table
+
     @property
     def group_names(self) -> tuple[str, ...]:
         return ("beam",) if self.n_groups == 1 else tuple(
@@ -108,34 +207,59 @@ class Plant:
 
     def parameter_names(self) -> tuple[str, ...]:
         """Every parameter name this plant accepts, group-qualified names included."""
-        names = list(self.parameters)
-        for name, info in self.parameters.items():
+        table = self.parameters
+        names = list(table)
+        for name, info in table.items():
             if info.per_group and self.n_groups > 1:
                 names += [f"{name}@{g}" for g in self.group_names]
         return tuple(names)
 
     def resolve(self, values: Mapping[str, float] | None = None) -> dict[str, float]:
-        """Defaults overlaid with ``values``, checked: unknown names and non-positive
-        values of positive parameters raise :class:`ModelError`."""
-        out = {k: info.default for k, info in self.parameters.items()}
+        """Defaults overlaid with ``values``, checked: unknown names, non-positive values
+        of positive parameters and missing required parameters (a bar's dimensions)
+        raise :class:`ModelError`."""
+        table = self.parameters
+        out = {k: info.default for k, info in table.items()}
         known = set(self.parameter_names())
         for key, value in (values or {}).items():
             if key not in known:
-                raise ModelError(f"{self.kind} has no parameter {key!r}; expected one of "
-                                 f"{', '.join(sorted(known))}")
+                raise ModelError(self._unknown_parameter(key, known))
             base = key.split("@")[0]
             v = float(value)
-            if not np.isfinite(v) or (self.parameters[base].positive and v <= 0):
+            if not np.isfinite(v) or (table[base].positive and v <= 0):
                 raise ModelError(f"parameter {key!r} must be a positive finite number "
-                                 f"({self.parameters[base].unit}); got {value!r}")
+                                 f"({table[base].unit}); got {value!r}")
             out[key] = v
+        missing = [k for k, v in out.items() if v is None]
+        if missing:
+            need = ", ".join(f"{k!r} ({table[k].description}, {table[k].unit})"
+                             for k in missing)
+            raise ModelError(f"{self.kind} with a {self.section} section needs parameter(s) "
+                             f"{need}: they have no default; got none")
         return out
+
+    def _unknown_parameter(self, key: str, known) -> str:
+        """The message for a parameter this plant lacks (naming the section whose
+        dimension it is, if it is one)."""
+        base = key.split("@")[0]
+        owner = next((k for k, dims in SECTION_PARAMETERS.items() if base in dims), None)
+        if owner is not None and owner != self.section:
+            own = ", ".join(SECTION_PARAMETERS[self.section])
+            return (f"{self.kind} with a {self.section} section has no parameter {key!r} (a "
+                    f"dimension of the {owner} section); expected the {self.section} "
+                    f"section's dimensions {own}")
+        return (f"{self.kind} has no parameter {key!r}; expected one of "
+                f"{', '.join(sorted(known))}")
 
     def group_value(self, params: Mapping[str, float], name: str, group: str) -> float:
         return params.get(f"{name}@{group}", params[name])
 
-    def group_properties(self, params: Mapping[str, float]) -> dict[str, dict[str, float]]:
-        return {g: {k: self.group_value(params, k, g) for k in MATERIAL_KEYS}
+    def group_properties(self, params: Mapping[str, float]) -> dict[str, dict]:
+        """Per group: the section name, material values and section dimensions (the
+        mapping :func:`~truthbench.fe.assembly.assemble` takes)."""
+        keys = MATERIAL_KEYS + SECTIONS[self.section].dimensions
+        return {g: {"section": self.section,
+                    **{k: self.group_value(params, k, g) for k in keys}}
                 for g in self.group_names}
 
     def group_lengths_m(self, params: Mapping[str, float]) -> np.ndarray:
@@ -145,9 +269,120 @@ class Plant:
 
     def node_x_m(self, params: Mapping[str, float]) -> np.ndarray:
         """Axial coordinate of every node, m (groups split into equal elements)."""
-        per = self.n_elements // self.n_groups
-        steps = np.repeat(self.group_lengths_m(params) / per, per)
+        return self._node_x(self.group_lengths_m(params), self.n_elements)
+
+    def _node_x(self, group_lengths_m: np.ndarray, n_elements: int) -> np.ndarray:
+        per = n_elements // self.n_groups
+        steps = np.repeat(group_lengths_m / per, per)
         return np.concatenate([[0.0], np.cumsum(steps)])
+
+    # ---- positions in metres --------------------------------------------------------
+    def _length_parameters(self, params: Mapping[str, float] | None) -> dict[str, float]:
+        """``L_m`` (default if absent) and any ``L_m@g`` of ``params``, checked: the
+        geometry of the mesh needs nothing else."""
+        table = self.parameters
+        known = set(self.parameter_names())
+        out = {"L_m": table["L_m"].default}
+        for key, value in (params or {}).items():
+            if key.split("@")[0] != "L_m":
+                continue
+            if key not in known:
+                raise ModelError(f"{self.kind} has no parameter {key!r}; expected one of "
+                                 f"{', '.join(sorted(k for k in known if k.startswith('L_m')))}")
+            v = float(value)
+            if not np.isfinite(v) or v <= 0:
+                raise ModelError(f"parameter {key!r} must be a positive finite number (m); "
+                                 f"got {value!r}")
+            out[key] = v
+        return out
+
+    def node_coordinates_m(self, params: Mapping[str, float] | None = None) -> np.ndarray:
+        """Coordinates of every node, m: the beam along global x from 0, y = z = 0.
+
+        Parameters
+        ----------
+        params : mapping, optional
+            Plant parameters; only ``L_m`` and ``L_m@g`` are used (default: the
+            default length).
+
+        Returns
+        -------
+        ndarray, shape (n_nodes, 3)
+            Node ``k`` is model DOF label prefix ``n<k>``.
+        """
+        x = self.node_x_m(self._length_parameters(params))
+        return np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+
+    def station_coordinates_m(self, station: str,
+                              params: Mapping[str, float] | None = None) -> np.ndarray:
+        """Coordinates (x, y, z) of a station's node, m, shape (3,)."""
+        return self.node_coordinates_m(params)[self.station_node(station)]
+
+    def node_at_m(self, x_m: float, params: Mapping[str, float] | None = None, *,
+                  tolerance_m: float = DEFAULT_NODE_TOLERANCE_M) -> int:
+        """The node at a position along the beam.
+
+        Parameters
+        ----------
+        x_m : float
+            Distance from the beam's first end along it, m, on the length of ``params``
+            (the nominal length).
+        params : mapping, optional
+            Plant parameters (``L_m``, ``L_m@g``); default the default length.
+        tolerance_m : float
+            Largest distance from the position to the node, m.
+
+        Returns
+        -------
+        int
+            Node index.
+
+        Raises
+        ------
+        ModelError
+            The position is off the beam, or no node lies within ``tolerance_m``: the
+            message gives the nearest node's position, the distance, and element counts
+            that would put a node there.
+        """
+        if isinstance(x_m, bool) or not isinstance(x_m, int | float | np.floating) \
+                or not np.isfinite(x_m):
+            raise ModelError(f"position x_m must be a finite number (m); got {x_m!r}")
+        if not tolerance_m > 0:
+            raise ModelError(f"node tolerance must be > 0 m; got {tolerance_m!r}")
+        lengths = self.group_lengths_m(self._length_parameters(params))
+        x = self._node_x(lengths, self.n_elements)
+        if x_m < -tolerance_m or x_m > x[-1] + tolerance_m:
+            raise ModelError(f"position x_m = {x_m:g} m is off the beam, which runs from 0 to "
+                             f"{x[-1]:g} m along its length from the first end")
+        node = int(np.argmin(np.abs(x - x_m)))
+        dist = abs(x[node] - x_m)
+        if dist > tolerance_m:
+            counts = self._counts_with_node_at(x_m, lengths, tolerance_m)
+            hint = (f"n_elements = {', '.join(map(str, counts))} put a node there"
+                    if counts else f"no n_elements up to {_MAX_SUGGESTED_ELEMENTS} puts a "
+                                   f"node there")
+            raise ModelError(
+                f"position x_m = {x_m:g} m is not on a node of the {self.n_elements}-element "
+                f"mesh: the nearest node (node {node}) is at {x[node]:g} m, {dist:.4g} m away "
+                f"(tolerance {tolerance_m:g} m); {hint}")
+        return node
+
+    def fraction_at_m(self, x_m: float, params: Mapping[str, float] | None = None, *,
+                      tolerance_m: float = DEFAULT_NODE_TOLERANCE_M) -> float:
+        """:meth:`node_at_m` as a station fraction (``node / n_elements``)."""
+        return self.node_at_m(x_m, params, tolerance_m=tolerance_m) / self.n_elements
+
+    def _counts_with_node_at(self, x_m: float, group_lengths_m: np.ndarray,
+                             tolerance_m: float, limit: int = 5) -> list[int]:
+        """The first ``limit`` element counts (multiples of n_groups) with a node within
+        ``tolerance_m`` of ``x_m``."""
+        out = []
+        for n in range(self.n_groups, _MAX_SUGGESTED_ELEMENTS + 1, self.n_groups):
+            if np.min(np.abs(self._node_x(group_lengths_m, n) - x_m)) <= tolerance_m:
+                out.append(n)
+                if len(out) == limit:
+                    break
+        return out
 
     # ---- stations ----------------------------------------------------------------
     def station_fractions(self) -> dict[str, float]:
@@ -283,7 +518,7 @@ class Plant:
         dofs = (6 * a + w, 6 * a + rot, 6 * b + w, 6 * b + rot)
         signs = (1.0, sgn, 1.0, sgn)
         group = self.element_groups()[a]
-        c = asm.params_by_group[group]["r_m"] + 0.5 * asm.params_by_group[group]["t_m"]
+        c = group_section(asm.params_by_group[group], group).outer_fibre_m(sen.direction)
         row = np.zeros(asm.n_free)
         for g, cf, sg in zip(dofs, coef, signs, strict=True):
             pos = np.searchsorted(asm.free, g)
@@ -363,7 +598,15 @@ def register_plant(cls: type[Plant]) -> type[Plant]:
 
 
 def make_plant(kind: str, **options) -> Plant:
-    """The plant registered as ``kind``, with mesh options (n_elements, n_groups, ...)."""
+    """The plant registered as ``kind``, with its options (n_elements, n_groups,
+    stations, timoshenko, section, material, and the plant's own, e.g. the free-free
+    beam's ``suspension_fractions``)."""
     if kind not in PLANTS:
         raise ModelError(f"unknown plant type {kind!r}; expected one of {sorted(PLANTS)}")
-    return PLANTS[kind](**options)
+    cls = PLANTS[kind]
+    names = [f.name for f in fields(cls)]
+    unknown = [k for k in options if k not in names]
+    if unknown:
+        raise ModelError(f"{kind} has no option {unknown[0]!r}; expected one of "
+                         f"{', '.join(names)}")
+    return cls(**options)

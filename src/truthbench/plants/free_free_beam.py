@@ -1,40 +1,44 @@
-"""The free-free beam: a straight tube on soft suspension springs.
+"""The free-free beam: a straight beam on soft suspension springs.
 
-The beam lies along global x from 0 to L; z is vertical. Two suspension points
-(default at the nodes nearest the first-mode nodal points, 0.224 L and 0.776 L) carry
-vertical springs and dashpots (``suspension_stiffness_n_m``, ``suspension_damping_n_s_m``
-each) and optional lateral (y) and axial (x) springs, so the plant has its six
-rigid-body modes lifted to low suspension frequencies only in the restrained directions.
-Shakers apply forces at stations; accelerometers read at stations.
+The beam lies along global x from 0 to L; z is vertical. Suspension points (default
+two, at the nodes nearest the first-mode nodal points, 0.224 L and 0.776 L; or any
+nodes given by ``suspension_fractions``) carry vertical springs and dashpots
+(``suspension_stiffness_n_m``, ``suspension_damping_n_s_m`` each) and optional lateral
+(y) springs; the first point also an optional axial (x) spring. So the plant has its
+six rigid-body modes lifted to low suspension frequencies only in the restrained
+directions. Shakers apply forces at stations; accelerometers read at stations.
+
+A campaign gives the points in metres (``[plant] suspension_x_m``); they are turned into
+node fractions on the nominal length (:meth:`~truthbench.plants.base.Plant.fraction_at_m`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import ClassVar
 
+from truthbench.errors import ModelError
 from truthbench.fe.assembly import Lumped
 from truthbench.plants.base import ParameterInfo, Plant, register_plant
 
-#: Nominal tube of METHOD section 9: aluminium, 25.4 mm OD, 1.65 mm wall, 1.8 m long.
-ALUMINIUM_TUBE = {
-    "E_pa": ParameterInfo(68.9e9, "Pa", "Young's modulus", per_group=True),
-    "nu": ParameterInfo(0.33, "-", "Poisson's ratio", per_group=True),
-    "rho_kg_m3": ParameterInfo(2700.0, "kg/m^3", "density", per_group=True),
-    "r_m": ParameterInfo(0.0127 - 0.000825, "m", "mean wall radius", per_group=True),
-    "t_m": ParameterInfo(0.00165, "m", "wall thickness", per_group=True),
-    "L_m": ParameterInfo(1.8, "m", "length (L_m@g: one group's segment)", per_group=True),
-    "modal_damping_ratio": ParameterInfo(0.005, "-", "damping ratio of every elastic mode",
-                                         positive=False),
-}
-
 
 @register_plant
+@dataclass(frozen=True)
 class FreeFreeBeam(Plant):
-    """Tube beam on soft suspension springs (see module docstring)."""
+    """Beam on soft suspension springs (see module docstring).
+
+    Parameters
+    ----------
+    suspension_fractions : tuple of float, optional
+        Suspension points as fractions of the element count, each on a node (node
+        ``fraction * n_elements``). Default: the nodes nearest
+        :attr:`default_suspension_fractions`.
+    """
+
+    suspension_fractions: tuple[float, ...] | None = None
 
     kind: ClassVar[str] = "free_free_beam"
-    parameters: ClassVar[dict[str, ParameterInfo]] = {
-        **ALUMINIUM_TUBE,
+    own_parameters: ClassVar[dict[str, ParameterInfo]] = {
         "suspension_stiffness_n_m": ParameterInfo(
             200.0, "N/m", "vertical stiffness of each suspension point"),
         "suspension_damping_n_s_m": ParameterInfo(
@@ -47,13 +51,37 @@ class FreeFreeBeam(Plant):
     default_stations: ClassVar[dict[str, float]] = {
         "end_a": 0.0, "quarter": 0.25, "mid": 0.5, "three_quarter": 0.75, "end_b": 1.0,
     }
-    #: suspension points, as fractions of the length (nearest node is used)
-    suspension_fractions: ClassVar[tuple[float, float]] = (0.224, 0.776)
+    #: default suspension points, as fractions of the length (nearest node is used)
+    default_suspension_fractions: ClassVar[tuple[float, float]] = (0.224, 0.776)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.suspension_fractions is not None:
+            fr = tuple(float(f) for f in self.suspension_fractions)
+            if not fr:
+                raise ModelError("suspension_fractions must hold at least one point; got ()")
+            object.__setattr__(self, "suspension_fractions", fr)
+            self.suspension_nodes()  # on nodes
+
+    def suspension_nodes(self) -> tuple[int, ...]:
+        """Node of every suspension point."""
+        if self.suspension_fractions is None:
+            return tuple(int(round(f * self.n_elements))
+                         for f in self.default_suspension_fractions)
+        out = []
+        for f in self.suspension_fractions:
+            pos = f * self.n_elements
+            node = int(round(pos))
+            if not 0.0 <= f <= 1.0 or abs(pos - node) > 1e-9:
+                raise ModelError(f"suspension point at fraction {f!r} of the length is not "
+                                 f"on a node of the {self.n_elements}-element mesh (nodes "
+                                 f"every 1/{self.n_elements} of the length)")
+            out.append(node)
+        return tuple(out)
 
     def _boundary(self, p, mesh):
-        nodes = [int(round(f * self.n_elements)) for f in self.suspension_fractions]
         springs, dashpots = [], []
-        for i, n in enumerate(nodes):
+        for i, n in enumerate(self.suspension_nodes()):
             springs.append((6 * n + 2, p["suspension_stiffness_n_m"]))
             dashpots.append((6 * n + 2, p["suspension_damping_n_s_m"]))
             springs.append((6 * n + 1, p["suspension_lateral_stiffness_n_m"]))

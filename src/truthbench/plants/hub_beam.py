@@ -1,4 +1,4 @@
-"""The hub-beam: a rigid hub turning about its vertical axis with a clamped tube beam.
+"""The hub-beam: a rigid hub turning about its vertical axis with a clamped beam.
 
 The hub (inertia ``hub_inertia_kg_m2`` about global z, radius neglected) sits at the
 origin; the beam runs along x and bends in the plane of rotation (x-y) and out of it
@@ -19,16 +19,14 @@ from typing import ClassVar
 
 from truthbench.fe.assembly import Lumped
 from truthbench.plants.base import ParameterInfo, Plant, register_plant
-from truthbench.plants.free_free_beam import ALUMINIUM_TUBE
 
 
 @register_plant
 class HubBeam(Plant):
-    """Rigid hub plus clamped tube beam (see module docstring)."""
+    """Rigid hub plus clamped beam (see module docstring)."""
 
     kind: ClassVar[str] = "hub_beam"
-    parameters: ClassVar[dict[str, ParameterInfo]] = {
-        **ALUMINIUM_TUBE,
+    own_parameters: ClassVar[dict[str, ParameterInfo]] = {
         # eta = 1 for the nominal tube: J_h = rho A L^3 (METHOD section 9)
         "hub_inertia_kg_m2": ParameterInfo(1.9385, "kg m^2", "hub inertia about its axis"),
         "hub_damping_n_m_s_rad": ParameterInfo(

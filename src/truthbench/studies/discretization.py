@@ -1,8 +1,8 @@
 """Discretization error of a free-free tube beam (the chapter's Figure 10.2).
 
 The nominal aluminium tube of METHOD section 9 (mean radius 11.875 mm, wall 1.65 mm,
-E = 68.9 GPa, rho = 2700 kg/m^3, L = 1.8 m; the defaults of
-:data:`truthbench.plants.free_free_beam.ALUMINIUM_TUBE`) is meshed into 1..N equal
+E = 68.9 GPa, rho = 2700 kg/m^3, L = 1.8 m; the defaults of the free-free beam plant,
+tube section, aluminium) is meshed into 1..N equal
 Euler-Bernoulli tube elements (:func:`truthbench.fe.assembly.straight_member`,
 :func:`~truthbench.fe.assembly.assemble`). Only planar x-z bending is kept: the axial,
 lateral (y), torsion and rz DOFs of every node are clamped with
@@ -56,10 +56,11 @@ __all__ = [
 
 
 def _nominal_tube() -> dict[str, float]:
-    from truthbench.plants.free_free_beam import ALUMINIUM_TUBE
+    from truthbench.plants import make_plant
 
     keys = ("E_pa", "nu", "rho_kg_m3", "r_m", "t_m", "L_m")
-    return {k: float(ALUMINIUM_TUBE[k].default) for k in keys}
+    defaults = make_plant("free_free_beam").resolve()
+    return {k: float(defaults[k]) for k in keys}
 
 
 def free_free_roots(n_modes: int) -> np.ndarray:
