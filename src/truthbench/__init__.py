@@ -8,3 +8,5 @@ where they are needed so the command line starts quickly.
 """
 
 __version__ = "0.1.0"
+
+import truthbench.campaign.store  # noqa: E402, F401 - registers the .h5/.hdf5 FRF reader of truthbench.io

@@ -204,3 +204,165 @@ def read_results(path: str | Path) -> dict:
         data["attrs"]["single_test"] = True
     data["path"] = str(path)
     return data
+
+
+# ------------------------------------------------------------------------------------
+# The FRFData reader of results and 'simulate' files, registered with truthbench.io for
+# .h5 and .hdf5 when this module is imported (``import truthbench`` imports it).
+# ------------------------------------------------------------------------------------
+
+
+def _frf_channels(path: Path, test: str, outputs, inputs, coordinates: dict):
+    """Channels from stored labels: outputs ``station.direction.qty`` (qty a short label
+    of :mod:`truthbench.quantities`), inputs ``station.direction`` (forces)."""
+    from truthbench.measure.frfdata import DIRECTIONS, Channel
+    from truthbench.quantities import QUANTITIES
+
+    shorts = {q.short: q.name for q in QUANTITIES.values() if q.power is not None}
+
+    def refuse(label, side):
+        form = (f"'<station>.<direction>.<qty>' with qty one of {sorted(shorts)}"
+                if side == "output" else "'<station>.<direction>'")
+        return DataFormatError(f"{path}: test {test!r}: {side} label {label!r} is not of the "
+                               f"form {form} and direction one of {list(DIRECTIONS)}")
+
+    outs, ins = [], []
+    for label in outputs:
+        parts = str(label).rsplit(".", 2)
+        if len(parts) != 3 or parts[1] not in DIRECTIONS or parts[2] not in shorts:
+            raise refuse(label, "output")
+        outs.append(Channel(str(label), shorts[parts[2]], parts[1], station=parts[0],
+                            coordinates_m=coordinates.get(parts[0])))
+    for label in inputs:
+        parts = str(label).rsplit(".", 1)
+        if len(parts) != 2 or parts[1] not in DIRECTIONS:
+            raise refuse(label, "input")
+        ins.append(Channel(str(label), "force", parts[1], station=parts[0],
+                           coordinates_m=coordinates.get(parts[0])))
+    return tuple(outs), tuple(ins)
+
+
+def _station_coordinates(spec: dict) -> tuple[dict, str | None]:
+    """Station -> (x, 0, 0) m on the nominal beam of a stored spec (as the runner places
+    the channels), and a note when the spec does not build a plant (no coordinates)."""
+    from truthbench.campaign.spec import parse_campaign
+
+    try:
+        parsed = parse_campaign(spec, "stored spec")
+        plant = parsed.make_plant()
+        x = plant.node_x_m(parsed.nominal_parameters())
+    except (ValueError, KeyError, TypeError) as exc:  # an old or partial spec
+        return {}, f"no station coordinates: the stored spec does not build a plant ({exc})"
+    out = {}
+    for station in plant.station_fractions():
+        try:
+            out[station] = (float(x[plant.station_node(station)]), 0.0, 0.0)
+        except ValueError:  # a station between nodes of this mesh: unused by the tests
+            continue
+    return out, None
+
+
+def read_frf(path: str | Path, *, trials=None, tests=None) -> tuple:
+    """The FRFs of a results file or a 'simulate' file as FRFData (the ``.h5`` reader).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Written by :func:`write_results` or :func:`write_test_record`.
+    trials : int or sequence of int, optional
+        Only these trials (default: all).
+    tests : str or sequence of str, optional
+        Only these tests, by name (default: all).
+
+    Returns
+    -------
+    tuple of FRFData
+        One per (trial, test), named ``"trial <k> / <test>"``: ``H`` (n_freq, n_out, n_in)
+        and coherence as stored, channels from the stored labels (quantity, direction,
+        station) at the stations' coordinates on the nominal beam of the stored spec
+        (x along the beam, m), the test's ``band_hz`` and ``averages`` from the spec.
+
+    Raises
+    ------
+    DataFormatError
+        Missing file, not HDF5, not a truthbench file, a label of unknown form, a trial
+        or test that is not in the file, or no stored FRF.
+    """
+    import h5py
+
+    from truthbench.measure.frfdata import FRFData
+
+    path = Path(path)
+    if not path.exists():
+        raise DataFormatError(f"{path}: results file not found")
+    want_trials = None if trials is None else (
+        {int(trials)} if isinstance(trials, int | np.integer) else {int(t) for t in trials})
+    want_tests = None if tests is None else (
+        {tests} if isinstance(tests, str) else {str(t) for t in tests})
+    out = []
+    try:
+        with h5py.File(path, "r") as f:
+            fmt = str(_plain(f.attrs.get("format")))
+            if not fmt.startswith(FORMAT):
+                raise DataFormatError(f"{path}: not a truthbench results file (attribute "
+                                      f"'format' is {fmt!r}; expected {FORMAT!r})")
+            spec = json.loads(str(_plain(f.attrs.get("spec_json", "{}"))))
+            if "trials" in f:
+                groups = [(int(k), f["trials"][k].get("tests", {})) for k in f["trials"]]
+            else:  # a single-test file written by 'truthbench simulate'
+                groups = [(int(_plain(f.attrs.get("trial", 0))), f.get("tests", {}))]
+            found_trials = sorted(t for t, _ in groups)
+            found_tests = sorted({name for _, g in groups for name in g})
+            if want_trials is not None and want_trials - set(found_trials):
+                raise DataFormatError(f"{path}: no trial {sorted(want_trials - set(found_trials))}"
+                                      f" in the file; it holds trials {found_trials}")
+            if want_tests is not None and want_tests - set(found_tests):
+                raise DataFormatError(f"{path}: no test {sorted(want_tests - set(found_tests))} "
+                                      f"in the file; it holds tests {found_tests}")
+            by_test = {t.get("name"): t for t in spec.get("tests", [])
+                       if isinstance(t, dict)}
+            coordinates, note = _station_coordinates(spec)
+            for trial, tests_group in groups:
+                if want_trials is not None and trial not in want_trials:
+                    continue
+                for name, t in tests_group.items():
+                    if want_tests is not None and name not in want_tests:
+                        continue
+                    if "H" not in t or "freq_hz" not in t:
+                        continue
+                    H = t["H"][()]
+                    outputs = _plain(t.attrs.get("output_labels", []))
+                    inputs = _plain(t.attrs.get("input_labels", []))
+                    outs, ins = _frf_channels(path, name, outputs, inputs, coordinates)
+                    coherence = t["coherence"][()] if "coherence" in t else None
+                    if coherence is not None and coherence.shape != H.shape:
+                        coherence = None
+                    test_spec = by_test.get(name, {})
+                    band = test_spec.get("band_hz")
+                    notes = [f"H1 as stored by the campaign runner (fs "
+                             f"{_plain(t.attrs.get('fs_hz'))} Hz) in {path.name}"]
+                    if note and not coordinates:
+                        notes.append(note)
+                    out.append(FRFData(
+                        name=f"trial {trial} / {name}", freq_hz=t["freq_hz"][()], H=H,
+                        outputs=outs, inputs=ins, coherence=coherence,
+                        n_averages=test_spec.get("averages"),
+                        band_hz=None if band is None else (float(band[0]), float(band[1])),
+                        notes=tuple(notes)))
+    except OSError as exc:
+        raise DataFormatError(f"{path}: cannot be read as HDF5 ({exc})") from None
+    if not out:
+        raise DataFormatError(
+            f"{path}: the file holds no test with stored FRFs (trials/*/tests/*/H or "
+            f"tests/*/H, and freq_hz); expected at least one")
+    return tuple(out)
+
+
+def _register_frf_reader() -> None:
+    from truthbench.io import register_reader
+
+    for ext in (".h5", ".hdf5"):
+        register_reader(ext, read_frf)
+
+
+_register_frf_reader()

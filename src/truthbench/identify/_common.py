@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from truthbench.quantities import MOTION_QUANTITIES, quantity
+
 #: Power ``q`` of ``j omega`` that turns a displacement FRF into the given type:
-#: ``H_type = (j omega)^q H_displacement``.
-FRF_TYPES: dict[str, int] = {"displacement": 0, "velocity": 1, "acceleration": 2}
+#: ``H_type = (j omega)^q H_displacement``, from the one table of quantities.
+FRF_TYPES: dict[str, int] = {name: quantity(name).power for name in MOTION_QUANTITIES}
 
 
 def frf_power(frf_type: str) -> int:
