@@ -20,7 +20,7 @@ import pytest
 import pyuff
 
 from truthbench.errors import DataFormatError
-from truthbench.io import load_frf, number_points, read_uff, write_uff
+from truthbench.io import load_frf, number_points, read_uff, write_uff, write_uff58_time
 from truthbench.measure import Channel, FRFData, estimate_frf, match_points
 from truthbench.plants import make_plant
 from truthbench.simulate import simulate_lti
@@ -138,6 +138,15 @@ def test_point_numbers_read_from_a_file_are_kept(tmp_path):
     pts = number_points(bare)
     assert pts.outputs == ((1, 2),) and pts.inputs == ((1,),)
     assert dict(pts.coordinates_m) == {1: None, 2: None}
+
+
+def test_other_function_types_are_left_out_with_a_note(tmp_path):
+    path = write_uff(tmp_path / "f.uff", synthetic("n", coherence=False))
+    t = write_uff58_time(tmp_path / "t.uff", np.ones((1, 4)), 0.5, resp_nodes=[9],
+                         resp_dirs=[3], quantities=["force"])
+    path.write_bytes(path.read_bytes() + t.read_bytes())
+    (d,) = read_uff(path)
+    assert "dataset-58 sets of function type(s) [1] left out" in " ".join(d.notes)
 
 
 def _with_point(c, p):

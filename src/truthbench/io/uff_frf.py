@@ -76,7 +76,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from os import PathLike
 from pathlib import Path
 from types import MappingProxyType
@@ -168,11 +168,14 @@ def number_points(frfs) -> PointNumbers:
     def name_of(ch: Channel) -> str:
         return ch.station or ch.label
 
+    # keep the channels' own point numbers when they name the points one to one
     by_point: dict[int, tuple | None] = {}
     kept = all(ch.point is not None and 0 < ch.point <= 2_147_483_647 for ch in chans)
-    for ch in chans if kept else ():
-        if by_point.setdefault(ch.point, ch.coordinates_m) != ch.coordinates_m:
-            kept = False
+    if kept:
+        for ch in chans:
+            if by_point.setdefault(ch.point, ch.coordinates_m) != ch.coordinates_m:
+                kept = False
+                break
     coords = [c for c in by_point.values() if c is not None]
     if kept and len(set(coords)) == len(coords):
         number = {id(ch): ch.point for ch in chans}
@@ -794,6 +797,11 @@ def read_uff(
     f = _parse_file(p)
     frf_groups = _group(f.sets58, _FUNC_FRF)
     if frf_groups:
+        other = sorted({int(d["func_type"]) for _, d in f.sets58} - {_FUNC_FRF,
+                                                                     _FUNC_COHERENCE})
+        if other:
+            f = replace(f, notes=(*f.notes, f"dataset-58 sets of function type(s) {other} "
+                                            f"left out (FRF sets read)"))
         coh_file = f if coherence is None else _parse_file(Path(coherence))
         coh_groups = _group(coh_file.sets58, _FUNC_COHERENCE)
         stray = sorted(set(coh_groups) - set(frf_groups))
