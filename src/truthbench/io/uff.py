@@ -77,6 +77,7 @@ from typing import Any
 
 import numpy as np
 
+from truthbench._validation import readonly
 from truthbench.errors import DataFormatError
 from truthbench.quantities import MOTION_QUANTITIES, quantity
 
@@ -211,13 +212,9 @@ class UFFData:
         for name in ("abscissa", "freq_hz", "H", "data"):
             value = getattr(self, name)
             if value is not None:
-                arr = np.array(value, copy=True)
-                arr.setflags(write=False)
-                object.__setattr__(self, name, arr)
+                object.__setattr__(self, name, readonly(value))
         for name in ("resp_nodes", "resp_dirs", "ref_nodes", "ref_dirs"):
-            arr = np.array(getattr(self, name), dtype=np.int64, copy=True)
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
+            object.__setattr__(self, name, readonly(getattr(self, name), np.int64))
         if self.freq_hz is not None:
             object.__setattr__(self, "freq_hz", self.abscissa)
 
