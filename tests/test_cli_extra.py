@@ -1,4 +1,4 @@
-"""The extra subcommands: study discretization, study damping-smoothing, identify.
+"""The extra subcommands: study discretization, study damping-smoothing, identify, export.
 
 The commands are registered on a parser built here the way ``truthbench.cli`` builds its
 own, so the tests do not depend on the wiring in cli.py.
@@ -17,23 +17,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from truthbench.cli import identify, study
+from truthbench.cli import export, identify, main, study
 
 
 def register(sub):
     study.register(sub)
     identify.register(sub)
+    export.register(sub)
 
 SHIPPED_LVM = Path(str(importlib.resources.files("truthbench").joinpath(
     "data/ladisk_beam_impact/acceleration.lvm")))
-
-
-@pytest.fixture(autouse=True)
-def _private_io_registry(monkeypatch):
-    """identify_file registers the .h5 reader; keep that out of the other tests."""
-    import truthbench.io.registry as registry
-
-    monkeypatch.setattr(registry, "_READERS", dict(registry._READERS))
 
 
 def run(argv: list[str]) -> int:
@@ -44,14 +37,20 @@ def run(argv: list[str]) -> int:
 
 
 def test_import_is_light_and_help_is_fast():
-    code = ("import sys, time; t = time.perf_counter(); import argparse; "
-            "import truthbench.cli.study as s, truthbench.cli.identify as i; "
+    # `import truthbench` imports the campaign store, which registers the .h5 reader of
+    # truthbench.io and imports numpy; nothing heavier (scipy, h5py, pyuff, matplotlib)
+    # may load behind --help, and truthbench's own share stays small.
+    code = ("import sys, time; t0 = time.perf_counter(); import numpy; "
+            "t1 = time.perf_counter(); import argparse; "
+            "import truthbench.cli.study as s, truthbench.cli.identify as i, "
+            "truthbench.cli.export as e; "
             "p = argparse.ArgumentParser(); sub = p.add_subparsers(); "
-            "s.register(sub); i.register(sub); "
-            "print(time.perf_counter() - t, 'numpy' in sys.modules, 'scipy' in sys.modules)")
+            "s.register(sub); i.register(sub); e.register(sub); "
+            "heavy = ('scipy', 'h5py', 'pyuff', 'matplotlib', 'control'); "
+            "print(time.perf_counter() - t1, any(m in sys.modules for m in heavy))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()
-    assert out[1:] == ["False", "False"]
+    assert out[1:] == ["False"]
     assert float(out[0]) < 0.5
 
 
@@ -121,3 +120,68 @@ def test_identify_errors_are_messages(tmp_path, capsys):
     bad.write_text("    -1\n    58\n")
     assert run(["identify", str(bad)]) == 2
     assert "bad.uff: truncated or corrupt UFF file" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def results_h5(tmp_path_factory):
+    """A small quickstart campaign (4 s records, 4 averages) stored as results.h5."""
+    import re
+
+    from truthbench.campaign.runner import run_campaign
+    from truthbench.campaign.spec import load_campaign
+    from truthbench.campaign.store import write_results
+
+    tmp = tmp_path_factory.mktemp("export")
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "campaigns" / "quickstart.toml").read_text()
+    text = re.sub(r"record_s = [0-9.]+", "record_s = 4.0", text)
+    text = re.sub(r"averages = [0-9]+", "averages = 4", text)
+    (tmp / "quick.toml").write_text(text)
+    return write_results(run_campaign(load_campaign(tmp / "quick.toml")), tmp / "results.h5")
+
+
+def test_export_writes_uff_and_says_what(results_h5, tmp_path, capsys):
+    import h5py
+    import pyuff
+
+    out = tmp_path / "quick.uff"
+    assert main(["export", str(results_h5), "--out", str(out), "--test", "shaker_quarter",
+                 "--trial", "0", "--binary"]) == 0
+    text = capsys.readouterr().out
+    assert f"-> {out} (binary 58b, exact)" in text
+    assert "2411 4 point(s), 58 4 FRF set(s) and 4 coherence set(s) in 1 load case(s)" in text
+    assert "point   2  quarter          (0.45, 0, 0) m" in text
+    assert "load case 1: trial 0 / shaker_quarter: 4 output(s) x 1 input(s) ['quarter.z']" \
+        in text
+    sets = pyuff.UFF(str(out)).read_sets()
+    frf = [s for s in sets if s["type"] == 58 and s["func_type"] == 4]
+    with h5py.File(results_h5) as f:
+        H = f["trials/0000/tests/shaker_quarter/H"][()]
+    # outputs end_a, quarter, mid, end_b are points 1..4 (sorted along the beam)
+    for s in frf:
+        assert s["ref_node"] == 2 and s["ref_dir"] == 3
+        np.testing.assert_array_equal(s["data"], H[:, s["rsp_node"] - 1, 0])
+    assert sorted(s["rsp_node"] for s in frf) == [1, 2, 3, 4]
+
+
+def test_export_then_identify(results_h5, tmp_path, capsys):
+    out = tmp_path / "all.unv"
+    assert main(["export", str(results_h5), "--out", str(out)]) == 0
+    assert "in 2 load case(s)" in capsys.readouterr().out
+    assert main(["identify", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [d["name"] for d in report["datasets"]] == ["trial 0 / shaker_end",
+                                                       "trial 0 / shaker_quarter"]
+    assert report["datasets"][0]["band_hz"] == [2.0, 400.0]
+    assert report["datasets"][0]["n_averages"] == 4
+
+
+def test_export_errors_are_messages(results_h5, tmp_path, capsys):
+    assert main(["export", str(results_h5), "--out", str(tmp_path / "x.uff"), "--test",
+                 "nope"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("truthbench export: error: ")
+    assert "results.h5: no test ['nope'] in the file" in err
+    assert main(["export", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "x.uff")]) == 2
+    assert "missing.h5: no such data file" in capsys.readouterr().err
+    assert not (tmp_path / "x.uff").exists()

@@ -18,14 +18,15 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "truthbench"
 LAYERS = (
     ("_version", "errors", "_validation", "quantities"),
     ("fe", "model", "measure", "simulate"),
-    ("plants", "io", "identify"),
-    ("effects", "uncertainty", "placement"),
-    ("update",),
-    ("diagnose", "studies"),
+    ("plants", "io"),
+    ("identify", "effects"),
+    ("update", "uncertainty", "placement"),
+    ("studies",),
     ("campaign",),
     ("report",),
     ("__init__",),
-    ("cli", "__main__"),
+    ("cli",),
+    ("__main__",),
 )
 RANK = {room: k for k, rooms in enumerate(LAYERS) for room in rooms}
 

@@ -15,6 +15,7 @@ The objects a user starts from (imported on first use, so ``truthbench --help`` 
 ``FRFPredictor``       model FRFs at measured lines for updating
 ``estimate_frf``       H1/H2/Hv FRFs and coherence from time histories
 ``FRFData``            the FRF data type (channels, units, coherence, averages)
+``load_frf``           FRFData from a file: UFF 58 (+ 164, 2411), LVM, our HDF5
 =====================  ===================================================================
 
 The package is organised in rooms, lowest first (README, "How it works"): ``fe``,
@@ -46,6 +47,8 @@ _EXPORTS = {
     "estimate_frf": "truthbench.measure",
     "FRFData": "truthbench.measure.frfdata",
     "Channel": "truthbench.measure.frfdata",
+    # through the store, which registers the .h5/.hdf5 reader when it is imported
+    "load_frf": "truthbench.campaign.store",
 }
 
 __all__ = ["__version__", *_EXPORTS]

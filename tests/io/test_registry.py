@@ -1,23 +1,34 @@
-"""Tests of load_data (dispatch on the file extension) and the register_reader hook."""
+"""Tests of load_frf (dispatch on the file extension) and the register_reader hook."""
 
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import truthbench.io.registry as registry
+from truthbench.campaign.store import read_frf
 from truthbench.errors import DataFormatError
 from truthbench.io import (
-    TimeRecord,
-    load_data,
+    load_frf,
     read_lvm,
-    read_uff58,
+    read_lvm_frf,
+    read_uff,
     register_reader,
     registered_extensions,
     write_uff58_time,
+)
+from truthbench.measure import Channel, FRFData
+
+LVM = (
+    "LabVIEW Measurement\t\nWriter_Version\t2\nSeparator\tTab\nDecimal_Separator\t.\n"
+    "X_Columns\tNo\n***End_of_Header***\t\n\t\nChannels\t2\t\t\nSamples\t{n}\t{n}\t\n"
+    "Y_Unit_Label\tN\tm/s^2\t\nX0\t0\t0\t\nDelta_X\t0.01\t0.01\t\n"
+    "***End_of_Header***\t\t\t\nX_Value\tF\tA\tComment\n{rows}"
 )
 
 
@@ -27,74 +38,130 @@ def private_registry(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(registry, "_READERS", dict(registry._READERS))
 
 
-def test_builtin_readers_are_registered() -> None:
-    assert registered_extensions() == (".lvm", ".uff", ".unv")
-    assert registry._READERS[".lvm"] is read_lvm
-    assert registry._READERS[".uff"] is read_uff58 and registry._READERS[".unv"] is read_uff58
+def test_builtin_and_campaign_readers_are_registered_at_import() -> None:
+    # the campaign store registers .h5/.hdf5 when imported; `import truthbench` does
+    assert registered_extensions() == (".h5", ".hdf5", ".lvm", ".uff", ".unv")
+    assert registry._READERS[".lvm"] is read_lvm_frf
+    assert registry._READERS[".uff"] is read_uff and registry._READERS[".unv"] is read_uff
+    assert registry._READERS[".h5"] is read_frf and registry._READERS[".hdf5"] is read_frf
 
 
-def test_load_data_reads_lvm_and_passes_kwargs(tmp_path: Path) -> None:
-    text = (
-        "LabVIEW Measurement\t\nWriter_Version\t2\nSeparator\tTab\nDecimal_Separator\t.\n"
-        "X_Columns\tNo\n***End_of_Header***\t\n\t\nChannels\t1\t\nSamples\t3\t\n"
-        "Y_Unit_Label\tN\t\nX0\t0\t\nDelta_X\t0.5\t\n***End_of_Header***\t\t\n"
-        "X_Value\tF\tComment\n\t1.0\n\t2.0\n"
-    )
+def test_the_store_registers_h5_when_imported_and_the_public_loader_imports_it() -> None:
+    """io alone knows .lvm and .uff; the campaign store registers .h5/.hdf5 when it is
+    imported (no registration at call time), which the public ``truthbench.load_frf``
+    does; importing io or truthbench stays light."""
+    code = ("import sys, truthbench, truthbench.io as io; print(io.registered_extensions()); "
+            "print('scipy' in sys.modules, 'h5py' in sys.modules); truthbench.load_frf; "
+            "print(io.registered_extensions())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.splitlines()
+    assert out[0] == "('.lvm', '.uff', '.unv')"
+    assert out[1] == "False False"
+    assert out[2] == "('.h5', '.hdf5', '.lvm', '.uff', '.unv')"
+
+
+def test_io_does_not_import_campaign() -> None:
+    for path in Path(registry.__file__).parent.glob("*.py"):
+        text = path.read_text()
+        assert "truthbench.campaign" not in text.replace(
+            "truthbench.campaign.store (HDF5 results store)", ""), path.name
+
+
+def test_load_frf_reads_lvm_and_passes_options(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    data = rng.standard_normal((2, 64))
+    rows = "".join(f"\t{a:.6e}\t{b:.6e}\n" for a, b in data.T)
     path = tmp_path / "short.LVM"
-    path.write_text(text)
-    with pytest.raises(DataFormatError, match="says 3 rows, read 2"):
-        load_data(path)
-    with pytest.warns(UserWarning, match="kept 2 complete rows"):
-        rec = load_data(path, allow_truncated=True)
-    assert isinstance(rec, TimeRecord)
-    np.testing.assert_array_equal(rec.data, [[1.0, 2.0]])
+    path.write_text(LVM.format(n=64, rows=rows))
+    (frf,) = load_frf(path, n_averages=4)
+    assert isinstance(frf, FRFData) and frf.n_averages == 4 and frf.excitation == "random"
+    assert frf.input_labels == ("F",) and frf.output_labels == ("A",)
+    cut = tmp_path / "cut.lvm"
+    cut.write_text(LVM.format(n=65, rows=rows))
+    with pytest.raises(DataFormatError, match="says 65 rows, read 64"):
+        load_frf(cut)
+    with pytest.warns(UserWarning, match="kept 64 complete rows"):
+        load_frf(cut, allow_truncated=True, n_averages=2)
 
 
-def test_load_data_reads_uff(tmp_path: Path) -> None:
+def test_load_frf_reads_uff_time_sets(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
     path = write_uff58_time(
-        tmp_path / "t.uff", np.ones((1, 4)), 0.5, resp_nodes=[1], resp_dirs=[3],
-        quantities=["force"],
+        tmp_path / "t.uff", rng.standard_normal((2, 64)), 0.5, resp_nodes=[1, 2],
+        resp_dirs=[3, 3], quantities=["force", "acceleration"],
     )  # fmt: skip
-    assert load_data(path, func_type=1).data.shape == (1, 4)
+    (frf,) = load_frf(path, n_averages=2)
+    assert frf.H.shape == (17, 1, 1) and frf.inputs[0].quantity == "force"
 
 
-def test_unknown_extension_names_it_and_the_supported_ones(tmp_path: Path) -> None:
+def test_an_option_the_reader_does_not_take_is_named(tmp_path: Path) -> None:
+    path = write_uff58_time(tmp_path / "t.uff", np.ones((1, 4)), 0.5, resp_nodes=[1],
+                            resp_dirs=[3], quantities=["force"])
+    with pytest.raises(ValueError, match=r"t\.uff: the \.uff reader .*read_uff\) takes no "
+                                         r"option\(s\) \['averages'\]; it takes \['coherence'"):
+        load_frf(path, averages=3)
+
+
+def test_missing_file_and_unknown_extension(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match=r"nothere\.uff: no such data file"):
+        load_frf(tmp_path / "nothere.uff")
     path = tmp_path / "data.csv"
+    path.write_text("1,2\n")
     with pytest.raises(
         DataFormatError,
         match=re.escape(str(path))
-        + r".*unknown file extension '\.csv'; expected one of: \.lvm, \.uff, \.unv",
+        + r".*unknown file extension '\.csv'; expected one of: \.h5, \.hdf5, \.lvm, \.uff",
     ):
-        load_data(path)
+        load_frf(path)
+    noext = tmp_path / "noext"
+    noext.write_text("")
     with pytest.raises(DataFormatError, match=r"unknown file extension '\(none\)'"):
-        load_data(tmp_path / "noext")
+        load_frf(noext)
 
 
+@pytest.mark.usefixtures("private_registry")
 @pytest.mark.parametrize("ext", [".h5", ".hdf5", ".H5"])
 def test_hdf5_is_reserved_until_registered(tmp_path: Path, ext: str) -> None:
+    for key in (".h5", ".hdf5"):
+        registry._READERS.pop(key)
+    path = tmp_path / f"results{ext}"
+    path.write_bytes(b"")
     with pytest.raises(
-        DataFormatError, match=r"no reader registered yet for '\.h.*register_reader"
+        DataFormatError, match=r"no reader registered yet for '\.h.*truthbench\.campaign\.store"
+                               r".*register_reader"
     ):
-        load_data(tmp_path / f"results{ext}")
+        load_frf(path)
 
 
 @pytest.mark.usefixtures("private_registry")
 def test_register_reader_hook(tmp_path: Path) -> None:
     calls = []
+    frf = FRFData("x", [1.0, 2.0], np.ones((2, 1, 1)), (Channel("a", "acceleration"),),
+                  (Channel("f", "force"),))
 
-    def fake_h5(path: Path, **kwargs: object) -> str:
-        calls.append((path, kwargs))
-        return "hdf5 result"
+    def fake(path: Path, *, group: str = "/") -> tuple[FRFData, ...]:
+        calls.append((path, group))
+        return (frf,)
 
-    register_reader("H5", fake_h5)  # no dot, upper case: normalized to ".h5"
-    assert ".h5" in registered_extensions()
-    assert load_data(tmp_path / "r.h5", group="/trial_0") == "hdf5 result"
-    assert calls == [(tmp_path / "r.h5", {"group": "/trial_0"})]
-    register_reader(".h5", fake_h5)  # same function again: allowed
-    with pytest.raises(ValueError, match=r"reader for '\.h5' is already registered"):
-        register_reader(".h5", lambda p: p)
-    register_reader(".h5", str, replace=True)
-    assert load_data(tmp_path / "r.h5") == str(tmp_path / "r.h5")
+    path = tmp_path / "r.xyz"
+    path.write_bytes(b"")
+    register_reader("XYZ", fake)  # no dot, upper case: normalized to ".xyz"
+    assert ".xyz" in registered_extensions()
+    assert load_frf(path, group="/trial_0") == (frf,)
+    assert calls == [(path, "/trial_0")]
+    register_reader(".xyz", fake)  # same function again: allowed
+    with pytest.raises(ValueError, match=r"reader for '\.xyz' is already registered"):
+        register_reader(".xyz", lambda p: p)
+    register_reader(".xyz", lambda p: "not FRFData", replace=True)
+    with pytest.raises(DataFormatError, match=r"r\.xyz: the \.xyz reader .* returned str; "
+                                              r"expected a non-empty tuple of FRFData"):
+        load_frf(path)
+    register_reader(".xyz", lambda p: (), replace=True)
+    with pytest.raises(DataFormatError, match=r"returned nothing \(an empty sequence\)"):
+        load_frf(path)
+    register_reader(".xyz", lambda p: (frf, 3), replace=True)
+    with pytest.raises(DataFormatError, match=r"returned a sequence holding int"):
+        load_frf(path)
 
 
 @pytest.mark.usefixtures("private_registry")

@@ -23,7 +23,7 @@ from truthbench.io import (
     DIRECTIONS,
     NODE_OFFSET,
     UFFData,
-    load_data,
+    load_frf,
     read_uff58,
     write_uff58_frf,
     write_uff58_time,
@@ -266,14 +266,14 @@ def test_other_datasets_are_skipped(frf_file: tuple[Path, np.ndarray, np.ndarray
     np.testing.assert_allclose(read_uff58(path).H, H, rtol=RTOL_ASCII)
 
 
-def test_load_data_dispatches_uff_and_unv(
+def test_load_frf_dispatches_uff_and_unv(
     frf_file: tuple[Path, np.ndarray, np.ndarray], tmp_path: Path
 ) -> None:
     path, _, H = frf_file
     unv = tmp_path / "same.UNV"
     unv.write_bytes(path.read_bytes())
     for p in (path, unv):
-        np.testing.assert_allclose(load_data(p).H, H, rtol=RTOL_ASCII)
+        np.testing.assert_allclose(load_frf(p)[0].H, H, rtol=RTOL_ASCII)
 
 
 def test_conventions_are_published() -> None:

@@ -1,50 +1,46 @@
 """The identification stage of a campaign: modal parameters of every test.
 
-Each test's H1 FRFs are brought to one type, acceleration-equivalent (each output row
-multiplied by ``(j omega)^(2 - k)``, k = 0 for displacement and strain, 1 for velocity,
-2 for acceleration), and identified with pLSCF over the test's excited band
-(:func:`truthbench.identify_data.identify_frfs`); the shapes come out in displacement
-units whatever the type. Accelerance, not receptance: the least-squares residue fit
-weighs the lines by the FRF's magnitude, and a receptance is dominated by the
-low-frequency suspension modes (their misfit spoiled the elastic shapes, MAC 0.84 for
-the third bending mode of the coverage campaign, against 0.9999 with accelerance).
-The modes feed sensitivity localization, the uncertainty model and the pole plot.
+Each test's H1 FRFs (``record.frf``) are brought to one type, acceleration-equivalent
+(each output row multiplied by ``(j omega)^(2 - k)``, k = 0 for displacement and strain,
+1 for velocity, 2 for acceleration: :meth:`~truthbench.measure.FRFData.as_quantity`),
+the 0 Hz line and lines with non-finite values are dropped, and the result is identified
+with pLSCF over the test's excited band, its low edge raised to the first remaining line
+(:func:`truthbench.identify.identify_frfs`); the shapes come out in displacement units
+whatever the type. Accelerance, not receptance: the least-squares residue fit weighs the
+lines by the FRF's magnitude, and a receptance is dominated by the low-frequency
+suspension modes (their misfit spoiled the elastic shapes, MAC 0.84 for the third
+bending mode of the coverage campaign, against 0.9999 with accelerance). The modes feed
+sensitivity localization, the uncertainty model and the pole plot.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from truthbench.model import QUANTITIES
 
-
-def acceleration_frf(spec, j: int, record) -> tuple[np.ndarray, np.ndarray]:
+def acceleration_frf(spec, j: int, record):
     """FRFs of test ``j`` as acceleration-equivalent, 0 Hz dropped.
 
     Returns
     -------
-    freq_hz : ndarray, shape (n_freq,)
-    H : ndarray, complex, shape (n_freq, n_out, n_in)
+    FRFData
+        ``record.frf`` with every output converted to acceleration, at the lines above
+        0 Hz (``freq_hz`` (n_freq,), ``H`` complex (n_freq, n_out, n_in)).
     """
-    kinds = ["displacement" if s.quantity == "strain" else s.quantity
-             for s in spec.test_sensors(j)]
-    keep = record.freq_hz > 0
-    f = record.freq_hz[keep]
-    jw = 2j * np.pi * f
-    q = np.array([QUANTITIES.index(k) for k in kinds])
-    return f, record.H[keep] * (jw[:, None] ** (2 - q)[None, :])[:, :, None]
+    frf = record.frf
+    return frf.lines(frf.freq_hz > 0).as_quantity("acceleration")
 
 
 def identify_test(spec, j: int, record, *, max_order: int = 40):
     """Identified modes of test ``j`` (:class:`~truthbench.identify.ModalParameters`),
     shapes over the test's sensors (displacement-equivalent units)."""
-    from truthbench.identify_data import FRFData, identify_frfs
+    from truthbench.identify import identify_frfs
 
-    f, H = acceleration_frf(spec, j, record)
+    data = acceleration_frf(spec, j, record)
     lo, hi = spec.tests[j].band_hz
-    lo = max(lo, f[0])
-    good = np.all(np.isfinite(H), axis=(1, 2))
-    data = FRFData(name=record.name, freq_hz=f[good], H=H[good], frf_type="acceleration",
-                   output_labels=record.output_labels, input_labels=record.input_labels,
-                   band_hz=(lo, hi))
+    lo = max(lo, data.freq_hz[0])
+    good = np.all(np.isfinite(data.H), axis=(1, 2))
+    data = replace(data.lines(good), band_hz=(lo, hi))
     return identify_frfs(data, method="plscf", max_order=max_order).modal

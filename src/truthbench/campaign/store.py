@@ -71,6 +71,7 @@ from pathlib import Path
 import numpy as np
 
 from truthbench.errors import DataFormatError
+from truthbench.io import load_frf, register_reader  # noqa: F401  (load_frf: public, with .h5)
 
 FORMAT = "truthbench-results-1"
 """The ``format`` attribute of a results file; a single-test file has ``FORMAT + "/test"``."""
@@ -580,3 +581,64 @@ def _read_trial(g, spec, order):
         raise
     except (KeyError, ValueError, TypeError) as exc:
         raise _Part(f"{g.name}: {type(exc).__name__}: {exc}") from None
+
+
+# ------------------------------------------------------------------------------------
+# The FRFData reader of results and 'simulate' files, registered with truthbench.io for
+# .h5 and .hdf5 when this module is imported.
+# ------------------------------------------------------------------------------------
+
+
+def read_frf(path: str | Path, *, trials=None, tests=None) -> tuple:
+    """The FRFs of a results file or a 'simulate' file as FRFData (the ``.h5`` reader of
+    :func:`truthbench.io.load_frf`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Written by :func:`write_results` or :func:`write_test_record`.
+    trials : int or sequence of int, optional
+        Only these trials (default: all).
+    tests : str or sequence of str, optional
+        Only these tests, by name (default: all).
+
+    Returns
+    -------
+    tuple of FRFData
+        One per (trial, test), named ``"trial <k> / <test>"``, as
+        :meth:`~truthbench.campaign.results.CampaignResult.load` rebuilds them: channels
+        with quantity, direction, station and coordinates, coherence, averages, band and
+        the estimator's settings.
+
+    Raises
+    ------
+    DataFormatError
+        Naming the file: not a truthbench results file, a trial or test it does not
+        hold, no stored FRF.
+    """
+    from dataclasses import replace
+
+    result = load_results(path)
+    want_trials = None if trials is None else (
+        {int(trials)} if isinstance(trials, int | np.integer) else {int(t) for t in trials})
+    want_tests = None if tests is None else (
+        {tests} if isinstance(tests, str) else {str(t) for t in tests})
+    held_trials = sorted(t.trial for t in result.trials)
+    held_tests = sorted({r.name for t in result.trials for r in t.tests})
+    if want_trials is not None and want_trials - set(held_trials):
+        raise DataFormatError(f"{path}: no trial {sorted(want_trials - set(held_trials))} "
+                              f"in the file; it holds trials {held_trials}")
+    if want_tests is not None and want_tests - set(held_tests):
+        raise DataFormatError(f"{path}: no test {sorted(want_tests - set(held_tests))} in "
+                              f"the file; it holds tests {held_tests}")
+    out = tuple(replace(rec.frf, name=f"trial {tr.trial} / {rec.name}")
+                for tr in result.trials if want_trials is None or tr.trial in want_trials
+                for rec in tr.tests if want_tests is None or rec.name in want_tests)
+    if not out:
+        raise DataFormatError(f"{path}: the file holds no test with stored FRFs; expected "
+                              f"at least one")
+    return out
+
+
+for _ext in (".h5", ".hdf5"):
+    register_reader(_ext, read_frf)

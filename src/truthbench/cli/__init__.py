@@ -12,9 +12,18 @@ import argparse
 import sys
 
 from truthbench._version import __version__
-from truthbench.cli import identify, modes, place_sensors, report, run, simulate, study
+from truthbench.cli import (
+    export,
+    identify,
+    modes,
+    place_sensors,
+    report,
+    run,
+    simulate,
+    study,
+)
 
-COMMANDS = (run, report, simulate, identify, study, place_sensors, modes)
+COMMANDS = (run, report, simulate, identify, export, study, place_sensors, modes)
 """The command modules, in the order ``--help`` lists them."""
 
 

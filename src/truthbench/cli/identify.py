@@ -12,7 +12,7 @@ def _fmt_shape(values) -> str:
 def _cmd_identify(args) -> int:
     import json
 
-    from truthbench.identify_data import EULER_BERNOULLI_FREE_FREE_RATIOS, identify_file
+    from truthbench.identify.workflow import EULER_BERNOULLI_FREE_FREE_RATIOS, identify_file
 
     try:
         report = identify_file(args.data, method=args.method, max_order=args.max_order,

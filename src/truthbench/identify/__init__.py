@@ -5,7 +5,10 @@ polyreference least-squares complex frequency-domain estimator with its stabiliz
 diagram and automatic pole selection (:mod:`.plscf`); least-squares frequency-domain
 residues (:mod:`.lsfd`); mass normalisation through a driving point (:mod:`.scaling`);
 MAC, COMAC, shape error and mode pairing (:mod:`.correlation`); Guyan reduction and
-shape expansion (:mod:`.reduction`); and the identifier registry (:mod:`.registry`).
+shape expansion (:mod:`.reduction`); the identifier registry (:mod:`.registry`); and
+the identify-a-file workflow (:mod:`.workflow`: :func:`identify_frfs` on an
+:class:`~truthbench.measure.FRFData`, :func:`identify_file` on any file
+:func:`truthbench.io.load_frf` reads, the exponential-window correction).
 
 Everything is a pure function on arrays returning frozen result objects. Conventions:
 FRF arrays are complex ``(n_freq, n_out, n_in)`` with ``freq_hz`` ``(n_freq,)``; shapes
@@ -47,10 +50,21 @@ from truthbench.identify.registry import (
     register_identifier,
 )
 from truthbench.identify.scaling import mass_normalize_shapes
+from truthbench.identify.workflow import (
+    EULER_BERNOULLI_FREE_FREE_RATIOS,
+    DatasetIdentification,
+    IdentifyReport,
+    correct_exponential_window,
+    identify_file,
+    identify_frfs,
+)
 
 __all__ = [
+    "EULER_BERNOULLI_FREE_FREE_RATIOS",
     "IDENTIFIERS",
+    "DatasetIdentification",
     "GuyanReduction",
+    "IdentifyReport",
     "Identifier",
     "LSFDResult",
     "ModalParameters",
@@ -63,9 +77,12 @@ __all__ = [
     "StabilizationDiagram",
     "auto_mac",
     "comac",
+    "correct_exponential_window",
     "expand_shapes",
     "get_identifier",
     "guyan_reduction",
+    "identify_file",
+    "identify_frfs",
     "identify_plscf",
     "lsfd",
     "mac",

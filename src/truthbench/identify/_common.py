@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from truthbench._validation import readonly  # noqa: F401 - the room's modules import it here
+from truthbench.quantities import MOTION_QUANTITIES, quantity
+
 #: Power ``q`` of ``j omega`` that turns a displacement FRF into the given type:
-#: ``H_type = (j omega)^q H_displacement``.
-FRF_TYPES: dict[str, int] = {"displacement": 0, "velocity": 1, "acceleration": 2}
+#: ``H_type = (j omega)^q H_displacement``, from the one table of quantities.
+FRF_TYPES: dict[str, int] = {name: quantity(name).power for name in MOTION_QUANTITIES}
 
 
 def frf_power(frf_type: str) -> int:
@@ -22,13 +25,6 @@ def frf_power(frf_type: str) -> int:
             f"The 'frf_type' parameter must be one of {sorted(FRF_TYPES)}; "
             f"got {frf_type!r} instead."
         ) from None
-
-
-def readonly(a: np.ndarray) -> np.ndarray:
-    """Return a read-only copy of ``a`` (used by the frozen result objects)."""
-    out = np.array(a, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 def check_freq_frf(freq_hz, frf) -> tuple[np.ndarray, np.ndarray]:

@@ -1,12 +1,25 @@
-"""The io room: reading and writing measured and exchanged test data.
+"""The io room: files <-> :class:`~truthbench.measure.FRFData` and time records.
 
-- :mod:`truthbench.io.lvm`: LabVIEW Measurement (.lvm, Writer_Version 2) reader
-  :func:`read_lvm` -> :class:`TimeRecord`, :func:`to_si`, and the shipped LADISK
-  beam impact test :func:`ladisk_beam_impact` -> :class:`ImpactRecord`.
-- :mod:`truthbench.io.uff`: UFF dataset 58 :func:`write_uff58_frf`,
-  :func:`write_uff58_time`, :func:`read_uff58` -> :class:`UFFData` (through pyuff).
-- :mod:`truthbench.io.registry`: :func:`load_data` by extension and the
-  :func:`register_reader` hook (the campaign room registers ``.h5`` / ``.hdf5``).
+- :mod:`truthbench.io.registry`: :func:`load_frf`, the one entry that reads a data file
+  into a tuple of FRFData with the reader registered for its extension, and the
+  :func:`register_reader` hook (the campaign store registers ``.h5`` / ``.hdf5`` when it
+  is imported; ``import truthbench`` imports it).
+- :mod:`truthbench.io.uff_frf`: :func:`read_uff` (the ``.uff`` / ``.unv`` reader: FRF
+  and coherence sets, units from dataset 164, points from 2411) and :func:`write_uff`
+  (151, 164, 2411, 58), with the point numbering rule :func:`number_points`.
+- :mod:`truthbench.io.uff`: the dataset-58 layer, :func:`write_uff58_frf`,
+  :func:`write_uff58_time`, :func:`read_uff58` -> :class:`UFFData` (raw arrays, through
+  pyuff).
+- :mod:`truthbench.io.lvm`: LabVIEW Measurement reader :func:`read_lvm` ->
+  :class:`TimeRecord`, :func:`to_si`, and the shipped LADISK beam impact test
+  :func:`ladisk_beam_impact`.
+- :mod:`truthbench.io.time_records`: which channel of a time record is the input and
+  what each measures, then H1 through :func:`truthbench.measure.frfs_from_time`;
+  :func:`read_lvm_frf` (the ``.lvm`` reader).
+- :mod:`truthbench.io.units`: unit labels and the UFF unit system (dataset 164).
+
+The room imports :mod:`truthbench.measure` only inside its functions, so importing it
+(and ``import truthbench``) stays light.
 """
 
 from truthbench.io.lvm import (
@@ -18,7 +31,8 @@ from truthbench.io.lvm import (
     read_lvm,
     to_si,
 )
-from truthbench.io.registry import load_data, register_reader, registered_extensions
+from truthbench.io.registry import load_frf, register_reader, registered_extensions
+from truthbench.io.time_records import frf_from_record, read_lvm_frf
 from truthbench.io.uff import (
     DIRECTIONS,
     FRF_TYPES,
@@ -29,28 +43,46 @@ from truthbench.io.uff import (
     write_uff58_frf,
     write_uff58_time,
 )
+from truthbench.io.uff_frf import (
+    DIRECTION_CODES,
+    PointNumbers,
+    number_points,
+    read_uff,
+    write_uff,
+)
+from truthbench.io.units import SI, UnitSystem, parse_unit
 
-register_reader(".lvm", read_lvm)
-register_reader(".uff", read_uff58)
-register_reader(".unv", read_uff58)
+register_reader(".lvm", read_lvm_frf)
+register_reader(".uff", read_uff)
+register_reader(".unv", read_uff)
 
 __all__ = [
     "DIRECTIONS",
+    "DIRECTION_CODES",
     "FRF_TYPES",
     "G_STANDARD_M_S2",
     "LADISK_BEAM_IMPACT_SHA256",
     "NODE_OFFSET",
+    "SI",
     "TIME_QUANTITIES",
     "ImpactRecord",
+    "PointNumbers",
     "TimeRecord",
     "UFFData",
+    "UnitSystem",
+    "frf_from_record",
     "ladisk_beam_impact",
-    "load_data",
+    "load_frf",
+    "number_points",
+    "parse_unit",
     "read_lvm",
+    "read_lvm_frf",
+    "read_uff",
     "read_uff58",
     "register_reader",
     "registered_extensions",
     "to_si",
+    "write_uff",
     "write_uff58_frf",
     "write_uff58_time",
 ]

@@ -1,34 +1,41 @@
-"""Readers by file extension: :func:`load_data` and the :func:`register_reader` hook.
+"""FRF readers by file extension: :func:`load_frf` and the :func:`register_reader` hook.
 
-The io room registers its own readers (``.lvm`` -> :func:`~truthbench.io.read_lvm`,
-``.uff`` / ``.unv`` -> :func:`~truthbench.io.read_uff58`). Other rooms add theirs at
-import time, e.g. the campaign room's results store::
+Every registered reader is a function ``reader(path, **options) -> tuple[FRFData, ...]``
+(:class:`truthbench.measure.FRFData`). The io room registers its own at import
+(``.uff`` / ``.unv`` -> :func:`~truthbench.io.read_uff`, ``.lvm`` ->
+:func:`~truthbench.io.read_lvm_frf`). Another room registers its readers when its module
+is imported, e.g. the campaign room's results store (imported by ``import truthbench``)::
 
     from truthbench.io import register_reader
-    register_reader(".h5", read_results)
-    register_reader(".hdf5", read_results)
+    register_reader(".h5", read_frf)
+    register_reader(".hdf5", read_frf)
 
-``.h5`` and ``.hdf5`` are *reserved* for that HDF5 reader: until it is registered,
-:func:`load_data` raises a :class:`~truthbench.errors.DataFormatError` that says so.
+No reader is registered at call time. ``.h5`` and ``.hdf5`` are *reserved* for that HDF5
+reader: until it is registered, :func:`load_frf` raises a
+:class:`~truthbench.errors.DataFormatError` that says so.
 """
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from os import PathLike
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from truthbench.errors import DataFormatError
 
-__all__ = ["load_data", "register_reader", "registered_extensions"]
+if TYPE_CHECKING:
+    from truthbench.measure.frfdata import FRFData
+
+__all__ = ["load_frf", "register_reader", "registered_extensions"]
 
 Reader = Callable[..., Any]
 
-# Extensions whose reader lives in another room and is registered later.
+# Extensions whose reader lives in another room and is registered by it.
 _RESERVED = {
-    ".h5": "truthbench.campaign (HDF5 results store)",
-    ".hdf5": "truthbench.campaign (HDF5 results store)",
+    ".h5": "truthbench.campaign.store (HDF5 results store)",
+    ".hdf5": "truthbench.campaign.store (HDF5 results store)",
 }
 _READERS: dict[str, Reader] = {}
 
@@ -40,8 +47,12 @@ def _normalize(ext: str) -> str:
     return ext if ext.startswith(".") else "." + ext
 
 
+def _name(func: Reader) -> str:
+    return f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', repr(func))}"
+
+
 def register_reader(ext: str, func: Reader, *, replace: bool = False) -> None:
-    """Register the reader :func:`load_data` uses for files ending in ``ext``.
+    """Register the reader :func:`load_frf` uses for files ending in ``ext``.
 
     Parameters
     ----------
@@ -49,15 +60,15 @@ def register_reader(ext: str, func: Reader, *, replace: bool = False) -> None:
         File extension, with or without the leading dot; case-insensitive
         (``"h5"``, ``".H5"`` and ``".h5"`` are the same).
     func : callable
-        ``func(path, **kwargs) -> result``; must take the path as first argument.
+        ``func(path, **options) -> tuple[FRFData, ...]``; takes the path first.
     replace : bool, default False
         Allow replacing a reader already registered for ``ext``.
 
     Raises
     ------
     ValueError
-        If ``ext`` is not an extension, or a reader is already registered for it and
-        ``replace`` is False.
+        If ``ext`` is not an extension, or another reader is already registered for it
+        and ``replace`` is False.
     TypeError
         If ``func`` is not callable.
     """
@@ -67,41 +78,65 @@ def register_reader(ext: str, func: Reader, *, replace: bool = False) -> None:
     if key in _READERS and not replace and _READERS[key] is not func:
         raise ValueError(
             f"register_reader: a reader for {key!r} is already registered "
-            f"({_READERS[key].__module__}.{_READERS[key].__qualname__}); pass replace=True "
-            f"to replace it"
+            f"({_name(_READERS[key])}); pass replace=True to replace it"
         )
     _READERS[key] = func
 
 
 def registered_extensions() -> tuple[str, ...]:
-    """The extensions :func:`load_data` can read now, sorted (e.g. ``('.lvm', ...)``)."""
+    """The extensions :func:`load_frf` can read now, sorted (e.g. ``('.h5', ...)``)."""
     return tuple(sorted(_READERS))
 
 
-def load_data(path: str | PathLike, **kwargs: Any) -> Any:
-    """Read a data file with the reader registered for its extension.
+def _check_options(p: Path, ext: str, reader: Reader, options: dict) -> None:
+    try:
+        params = inspect.signature(reader).parameters
+    except (TypeError, ValueError):  # a builtin without a signature: let it decide
+        return
+    if any(v.kind is inspect.Parameter.VAR_KEYWORD for v in params.values()):
+        return
+    names = [n for n, v in list(params.items())[1:]
+             if v.kind in (inspect.Parameter.KEYWORD_ONLY,
+                           inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    bad = sorted(set(options) - set(names))
+    if bad:
+        raise ValueError(
+            f"{p}: the {ext} reader ({_name(reader)}) takes no option(s) {bad}; it takes "
+            f"{names or 'none'}"
+        )
+
+
+def load_frf(path: str | PathLike, **options: Any) -> tuple[FRFData, ...]:
+    """Read a data file into FRFData with the reader registered for its extension.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file. Its last suffix, lower-cased, chooses the reader.
-    **kwargs
-        Passed to the reader (e.g. ``allow_truncated=True`` for ``.lvm``,
-        ``func_type=4`` for ``.uff``).
+    **options
+        Passed to the reader (e.g. ``coherence=`` for ``.uff``, ``excitation=``,
+        ``n_averages=`` for time records, ``trials=``, ``tests=`` for ``.h5``).
 
     Returns
     -------
-    object
-        What the reader returns: :class:`~truthbench.io.TimeRecord` for ``.lvm``,
-        :class:`~truthbench.io.UFFData` for ``.uff`` / ``.unv``.
+    tuple of FRFData
+        What the reader found, at least one.
 
     Raises
     ------
+    FileNotFoundError
+        If the file does not exist.
+    ValueError
+        An option the reader does not take (the message lists the ones it takes).
     truthbench.errors.DataFormatError
-        If no reader is registered for the extension (the message names the extension
-        and the supported ones), or the reader finds the file malformed.
+        No reader registered for the extension (the message names it and the supported
+        ones), a reader that returns something else than FRFData, or a malformed file.
     """
+    from truthbench.measure.frfdata import FRFData
+
     p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"{p}: no such data file")
     ext = p.suffix.lower()
     reader = _READERS.get(ext)
     if reader is None:
@@ -115,6 +150,22 @@ def load_data(path: str | PathLike, **kwargs: Any) -> Any:
         pending = ", ".join(sorted(set(_RESERVED) - set(_READERS)))
         later = f" ({pending} once their reader is registered)" if pending else ""
         raise DataFormatError(
-            f"{p}: unknown file extension {ext or '(none)'!r}; expected one of: {supported}{later}"
+            f"{p}: unknown file extension {ext or '(none)'!r}; expected one of: "
+            f"{supported}{later}"
         )
-    return reader(p, **kwargs)
+    _check_options(p, ext, reader, options)
+    out = reader(p, **options)
+    items = tuple(out) if isinstance(out, tuple | list) else None
+    if items is None:
+        got = type(out).__name__
+    elif not items:
+        got = "nothing (an empty sequence)"
+    else:
+        odd = [type(d).__name__ for d in items if not isinstance(d, FRFData)]
+        got = f"a sequence holding {odd[0]}" if odd else ""
+    if got:
+        raise DataFormatError(
+            f"{p}: the {ext} reader ({_name(reader)}) returned {got}; expected a non-empty "
+            f"tuple of FRFData"
+        )
+    return items

@@ -77,7 +77,9 @@ from typing import Any
 
 import numpy as np
 
+from truthbench._validation import readonly
 from truthbench.errors import DataFormatError
+from truthbench.quantities import MOTION_QUANTITIES, quantity
 
 __all__ = [
     "DIRECTIONS",
@@ -102,22 +104,21 @@ DIRECTIONS = MappingProxyType(
 )  # fmt: skip
 """UFF direction codes (record 6, fields 7 and 10) and their meaning."""
 
-_FORCE = (13, "Force", "N")
-_QUANTITIES = {
-    "acceleration": (12, "Acceleration", "m/s^2"),
-    "velocity": (11, "Velocity", "m/s"),
-    "displacement": (8, "Displacement", "m"),
-    "force": _FORCE,
-}
+def _axis(name: str) -> tuple[int, str, str]:
+    """(UFF specific data type, axis label, SI unit label) of a quantity, from the one
+    table :mod:`truthbench.quantities`."""
+    q = quantity(name)
+    return (q.uff_code, name.capitalize(), q.unit)
+
+
+_FORCE = _axis("force")
+_QUANTITIES = {name: _axis(name) for name in ("acceleration", "velocity", "displacement",
+                                              "force")}
 TIME_QUANTITIES = MappingProxyType(_QUANTITIES)
 """Time-history quantity -> (UFF specific data type, axis label, SI unit label)."""
 
 FRF_TYPES = MappingProxyType(
-    {
-        "accelerance": (_QUANTITIES["acceleration"], _FORCE),
-        "mobility": (_QUANTITIES["velocity"], _FORCE),
-        "receptance": (_QUANTITIES["displacement"], _FORCE),
-    }
+    {quantity(q).frf_name: (_axis(q), _FORCE) for q in reversed(MOTION_QUANTITIES)}
 )
 """FRF type -> ((numerator code, label, unit), (denominator code, label, unit))."""
 
@@ -211,13 +212,9 @@ class UFFData:
         for name in ("abscissa", "freq_hz", "H", "data"):
             value = getattr(self, name)
             if value is not None:
-                arr = np.array(value, copy=True)
-                arr.setflags(write=False)
-                object.__setattr__(self, name, arr)
+                object.__setattr__(self, name, readonly(value))
         for name in ("resp_nodes", "resp_dirs", "ref_nodes", "ref_dirs"):
-            arr = np.array(getattr(self, name), dtype=np.int64, copy=True)
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
+            object.__setattr__(self, name, readonly(getattr(self, name), np.int64))
         if self.freq_hz is not None:
             object.__setattr__(self, "freq_hz", self.abscissa)
 
@@ -347,7 +344,7 @@ def _plan_abscissa(x: np.ndarray, binary: bool, name: str) -> int:
 # --------------------------------------------------------------------------------------
 
 
-def _fix_binary_byte_counts(path: str, dsets: list[dict]) -> None:
+def _fix_binary_byte_counts(path: str, dsets: list[dict], start: int = 0) -> None:
     """Write the true byte count into field 6 of every "58b" ID line pyuff wrote.
 
     pyuff 2.5.8 writes ``num_pts * 8`` there whatever the layout, but the binary block
@@ -356,7 +353,7 @@ def _fix_binary_byte_counts(path: str, dsets: list[dict]) -> None:
     walked with the known sizes and checked on the way.
     """
     raw = bytearray(Path(path).read_bytes())
-    pos = 0
+    pos = start
     for dset in dsets:
         n_bytes = 8 * len(dset["data"]) * (3 if np.iscomplexobj(dset["data"]) else 2)
         id_line = raw.index(b"\n", pos) + 1  # after the opening "    -1" line
@@ -375,8 +372,10 @@ def _fix_binary_byte_counts(path: str, dsets: list[dict]) -> None:
     Path(path).write_bytes(bytes(raw))
 
 
-def _write_sets(path: str | PathLike, dsets: list[dict], binary: bool) -> Path:
-    """Write dataset dicts to ``path`` (replacing it) through a temporary file."""
+def _write_sets(path: str | PathLike, dsets: list[dict], binary: bool,
+                header_sets: Sequence[dict] = ()) -> Path:
+    """Write dataset dicts to ``path`` (replacing it) through a temporary file: the
+    ``header_sets`` (151, 164, 2411, ...) first, then the dataset-58 sets ``dsets``."""
     import pyuff
 
     target = Path(path)
@@ -388,9 +387,12 @@ def _write_sets(path: str | PathLike, dsets: list[dict], binary: bool) -> Path:
             warnings.simplefilter("ignore", ResourceWarning)
             # Always 'add' to the fresh empty file: pyuff's 'overwrite' mode truncates the
             # header of a first binary set.
+            if header_sets:
+                pyuff.UFF(tmp).write_sets(list(header_sets), mode="add")
+            start = Path(tmp).stat().st_size
             pyuff.UFF(tmp).write_sets(dsets, mode="add")
         if binary:
-            _fix_binary_byte_counts(tmp, dsets)
+            _fix_binary_byte_counts(tmp, dsets, start)
         os.replace(tmp, target)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -704,8 +706,17 @@ def _check_delimiters(path: Path, raw: bytes) -> None:
             )
 
 
-def _read_pyuff_sets(path: Path) -> list[tuple[int, dict]]:
-    """Read every dataset 58 of ``path`` with pyuff: (index in file, dict) pairs."""
+_GEOMETRY_TYPES = (2411, 15)
+
+
+def _read_sets(path: Path, wanted: Sequence[int]
+               ) -> tuple[list[int], dict[int, list[tuple[int, dict]]]]:
+    """Read the datasets of the ``wanted`` types with pyuff: the type of every dataset in
+    the file, and type -> [(index, dict)] for the wanted ones.
+
+    Every dataset-58 set is checked for its point count; geometry sets (2411, 15) for
+    whole node records. Other dataset types are indexed but not read.
+    """
     import pyuff
 
     try:
@@ -724,36 +735,54 @@ def _read_pyuff_sets(path: Path) -> list[tuple[int, dict]]:
             f"{path}: corrupt UFF file: dataset(s) {unknown} have no dataset number on the "
             f"line after their opening '    -1' (a delimiter is probably missing or extra)"
         )
-    idx58 = [k for k, t in enumerate(types) if t == 58]
-    if not idx58:
-        raise DataFormatError(
-            f"{path}: no dataset 58 (function at nodal DOF): the file holds dataset types "
-            f"{sorted(set(types))}"
-        )
-    out = []
-    for k in idx58:
+    out: dict[int, list[tuple[int, dict]]] = {t: [] for t in wanted}
+    for k, t in enumerate(types):
+        if t not in out:
+            continue
         try:
             dset = uff.read_sets(k)
         except Exception as exc:
             root = exc
             while root.__context__ is not None:  # pyuff re-raises bare Exceptions
                 root = root.__context__
+            what = ("11 header records of dataset 58 followed by the data values" if t == 58
+                    else f"the records of dataset {t}")
             raise DataFormatError(
-                f"{path}: dataset {k} (type 58, set {k + 1} of {len(types)}) is corrupt: "
+                f"{path}: dataset {k} (type {t}, set {k + 1} of {len(types)}) is corrupt: "
                 f"pyuff could not parse it ({exc} <- {type(root).__name__}: {root}); "
-                f"expected 11 header records of dataset 58 followed by the data values"
+                f"expected {what}"
             ) from exc
-        n_pts = int(dset.get("num_pts", -1))
-        n_read = len(dset["data"])
-        if n_pts != n_read:
-            raise DataFormatError(
-                f"{path}: dataset {k} (type 58): record 7 says {n_pts} data values, found "
-                f"{n_read}; the set is truncated or corrupt"
-            )
-        if n_read < 1:
-            raise DataFormatError(f"{path}: dataset {k} (type 58) holds no data values")
-        out.append((k, dset))
-    return out
+        if t == 58:
+            n_pts = int(dset.get("num_pts", -1))
+            n_read = len(dset["data"])
+            if n_pts != n_read:
+                raise DataFormatError(
+                    f"{path}: dataset {k} (type 58): record 7 says {n_pts} data values, "
+                    f"found {n_read}; the set is truncated or corrupt"
+                )
+            if n_read < 1:
+                raise DataFormatError(f"{path}: dataset {k} (type 58) holds no data values")
+        elif t in _GEOMETRY_TYPES:
+            sizes = {len(dset.get(key, ())) for key in ("node_nums", "x", "y", "z")}
+            if len(sizes) != 1:
+                raise DataFormatError(
+                    f"{path}: dataset {k} (type {t}) is truncated or corrupt: its node "
+                    f"records are incomplete (node numbers and x, y, z of different "
+                    f"counts {sorted(sizes)}); expected 7 values per node"
+                )
+        out[t].append((k, dset))
+    return types, out
+
+
+def _read_pyuff_sets(path: Path) -> list[tuple[int, dict]]:
+    """Read every dataset 58 of ``path`` with pyuff: (index in file, dict) pairs."""
+    types, found = _read_sets(path, (58,))
+    if not found[58]:
+        raise DataFormatError(
+            f"{path}: no dataset 58 (function at nodal DOF): the file holds dataset types "
+            f"{sorted(set(types))}"
+        )
+    return found[58]
 
 
 def _header_only(dset: Mapping) -> Mapping:
@@ -765,6 +794,38 @@ def _code_name(table: Mapping, code: int) -> str:
         if c == code:
             return name
     return "unknown"
+
+
+def _common_of(p: Path, selected: list[tuple[int, dict]], func_type: int,
+               what: str = "") -> dict[str, Any]:
+    """Fields shared by a selection of sets, after checking they share one abscissa."""
+    k0, d0 = selected[0]
+    x0 = np.asarray(d0["x"], dtype=np.float64)
+    scale = float(np.max(np.abs(x0))) or 1.0
+    what = what or f"every set of function type {func_type}"
+    for k, d in selected[1:]:
+        x = np.asarray(d["x"], dtype=np.float64)
+        if x.shape != x0.shape:
+            raise DataFormatError(
+                f"{p}: inconsistent abscissae: dataset {k} has {x.size} points, dataset "
+                f"{k0} has {x0.size}; expected {what} to share one abscissa"
+            )
+        err = float(np.max(np.abs(x - x0)))
+        if err > _SAME_ABSCISSA_RTOL * scale:
+            raise DataFormatError(
+                f"{p}: inconsistent abscissae: dataset {k} differs from dataset {k0} by up "
+                f"to {err:.6g} (first values {x[:2].tolist()} vs {x0[:2].tolist()}); "
+                f"expected {what} to share one abscissa"
+            )
+    return {
+        "path": p,
+        "func_type": int(func_type),
+        "abscissa": x0,
+        "abscissa_units": str(d0.get("abscissa_axis_units_lab", "")),
+        "id_lines": tuple(str(d0.get(f"id{m}", "")) for m in range(1, 6)),
+        "binary": bool(d0.get("binary", 0)),
+        "sets": tuple(_header_only(d) for _, d in selected),
+    }
 
 
 def read_uff58(path: str | PathLike, *, func_type: int | None = None) -> UFFData:
@@ -815,34 +876,7 @@ def read_uff58(path: str | PathLike, *, func_type: int | None = None) -> UFFData
             f"{p}: no dataset 58 of function type {func_type}; the file holds types {types}"
         )
 
-    k0, d0 = selected[0]
-    x0 = np.asarray(d0["x"], dtype=np.float64)
-    scale = float(np.max(np.abs(x0))) or 1.0
-    for k, d in selected[1:]:
-        x = np.asarray(d["x"], dtype=np.float64)
-        if x.shape != x0.shape:
-            raise DataFormatError(
-                f"{p}: inconsistent abscissae: dataset {k} has {x.size} points, dataset "
-                f"{k0} has {x0.size}; expected every set of function type {func_type} to "
-                f"share one abscissa"
-            )
-        err = float(np.max(np.abs(x - x0)))
-        if err > _SAME_ABSCISSA_RTOL * scale:
-            raise DataFormatError(
-                f"{p}: inconsistent abscissae: dataset {k} differs from dataset {k0} by up "
-                f"to {err:.6g} (first values {x[:2].tolist()} vs {x0[:2].tolist()}); "
-                f"expected every set of function type {func_type} to share one abscissa"
-            )
-
-    common: dict[str, Any] = {
-        "path": p,
-        "func_type": int(func_type),
-        "abscissa": x0,
-        "abscissa_units": str(d0.get("abscissa_axis_units_lab", "")),
-        "id_lines": tuple(str(d0.get(f"id{m}", "")) for m in range(1, 6)),
-        "binary": bool(d0.get("binary", 0)),
-        "sets": tuple(_header_only(d) for _, d in selected),
-    }
+    common = _common_of(p, selected, func_type)
     if func_type == _FUNC_TIME:
         return _assemble_time(p, selected, common)
     return _assemble_grid(p, selected, common)
@@ -888,7 +922,8 @@ def _assemble_time(p: Path, selected: list[tuple[int, dict]], common: dict) -> U
     )
 
 
-def _assemble_grid(p: Path, selected: list[tuple[int, dict]], common: dict) -> UFFData:
+def _assemble_grid(p: Path, selected: list[tuple[int, dict]], common: dict,
+                   label: str = "") -> UFFData:
     resp: dict[tuple[int, int], int] = {}
     ref: dict[tuple[int, int], int] = {}
     resp_meta: list[dict] = []
@@ -906,9 +941,9 @@ def _assemble_grid(p: Path, selected: list[tuple[int, dict]], common: dict) -> U
         key = (resp[r], ref[f])
         if key in where:
             raise DataFormatError(
-                f"{p}: datasets {selected[where[key]][0]} and {k} both hold response node "
-                f"{r[0]} dir {r[1]} / reference node {f[0]} dir {f[1]}; expected each "
-                f"(response, reference) pair once"
+                f"{p}{label}: datasets {selected[where[key]][0]} and {k} both hold "
+                f"response node {r[0]} dir {r[1]} / reference node {f[0]} dir {f[1]}; "
+                f"expected each (response, reference) pair once"
             )
         where[key] = pos
     n_out, n_in = len(resp), len(ref)
@@ -921,7 +956,8 @@ def _assemble_grid(p: Path, selected: list[tuple[int, dict]], common: dict) -> U
             if (i, j) not in where
         ]
         raise DataFormatError(
-            f"{p}: the sets do not fill the {n_out} x {n_in} (response x reference) grid: "
+            f"{p}{label}: the sets do not fill the {n_out} x {n_in} (response x reference) "
+            f"grid: "
             f"missing (node, dir) pairs {missing[:6]}{' ...' if len(missing) > 6 else ''}; "
             f"expected one set per pair"
         )

@@ -9,7 +9,11 @@ frequency response matrix:
   blockwise FFTs with the products summed while in cache, averaged one-sided density
   matrices Gxx, Gyx, Gyy;
 * :mod:`~truthbench.measure.frf` -- the estimators H1, H2, Hv (a registry by name),
-  ordinary and multiple coherence, and the :class:`FRFEstimate` result.
+  ordinary and multiple coherence, and the :class:`FRFEstimate` result;
+* :mod:`~truthbench.measure.frfdata` -- :class:`FRFData`, the one FRF data type every
+  room exchanges, its :class:`Channel` and :func:`match_points` (points to model nodes);
+* :mod:`~truthbench.measure.time_frf` -- :func:`frfs_from_time`: impact and random time
+  records to H1 FRFs with their default bands.
 
 Conventions fixed for the project: ``H`` has shape ``(n_freq, n_out, n_in)`` with
 ``Y = H X``, ``freq_hz`` shape ``(n_freq,)``; ``y = h * x`` gives ``H = DFT(h)``.
@@ -26,6 +30,7 @@ from truthbench.measure.frf import (
     h2,
     hv,
 )
+from truthbench.measure.frfdata import Channel, FRFData, match_points
 from truthbench.measure.spectra import (
     SegmentPlan,
     SpectralMatrices,
@@ -33,10 +38,13 @@ from truthbench.measure.spectra import (
     plan_segments,
     spectral_matrices,
 )
+from truthbench.measure.time_frf import find_pulse, frfs_from_time
 from truthbench.measure.windows import WINDOW_NAMES, get_window, window_from_spec
 
 __all__ = [
     "ESTIMATORS",
+    "Channel",
+    "FRFData",
     "FRFEstimate",
     "FRFEstimator",
     "SegmentPlan",
@@ -44,11 +52,14 @@ __all__ = [
     "WINDOW_NAMES",
     "estimate_frf",
     "fft_friendly_length",
+    "find_pulse",
     "frf_from_spectra",
+    "frfs_from_time",
     "get_window",
     "h1",
     "h2",
     "hv",
+    "match_points",
     "plan_segments",
     "spectral_matrices",
     "window_from_spec",

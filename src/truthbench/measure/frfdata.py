@@ -14,7 +14,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from truthbench._validation import check_choice, readonly
+from truthbench._validation import check_array, check_choice, check_number, readonly
+from truthbench.errors import DataFormatError
 from truthbench.quantities import QUANTITIES, convert_outputs, quantity
 
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
@@ -70,6 +71,65 @@ class Channel:
     def unit(self) -> str:
         """SI unit of the channel's quantity along its direction."""
         return quantity(self.quantity).unit_for(self.direction)
+
+
+def match_points(channels: Sequence[Channel], node_coordinates_m, tolerance_m: float, *,
+                 where: str = "") -> np.ndarray:
+    """The model node each channel's point sits at: the nearest node within a tolerance.
+
+    Parameters
+    ----------
+    channels : sequence of Channel
+        Each with ``coordinates_m`` (e.g. read from UFF dataset 2411).
+    node_coordinates_m : array_like, shape (n_nodes, 3)
+        The model's node positions, m, in the same frame as the channels' coordinates.
+    tolerance_m : float
+        Largest accepted distance between a point and its node, m (>= 0).
+    where : str
+        The file or data set the channels come from, for error messages.
+
+    Returns
+    -------
+    ndarray of int, shape (n_channels,)
+        Index of the nearest node (Euclidean distance) for each channel; of two nodes at
+        the same distance the lower index.
+
+    Raises
+    ------
+    DataFormatError
+        A channel without coordinates, or whose point lies farther than ``tolerance_m``
+        from every node; the message names the channel, its point number and
+        coordinates, the nearest node and its distance.
+    ValueError
+        Node coordinates not of shape (n_nodes, 3) with n_nodes >= 1, or a negative or
+        non-finite tolerance.
+    """
+    nodes = check_array("node_coordinates_m", node_coordinates_m, shape=(None, 3),
+                        where=where or "match_points")
+    if nodes.shape[0] == 0:
+        raise ValueError(f"{where or 'match_points'}: 'node_coordinates_m' holds no node; "
+                         f"expected at least one")
+    tol = check_number("tolerance_m", tolerance_m, low=0.0, where=where or "match_points")
+    prefix = f"{where}: " if where else ""
+    out = np.empty(len(channels), dtype=int)
+    for k, ch in enumerate(channels):
+        if ch.coordinates_m is None:
+            raise DataFormatError(
+                f"{prefix}channel {ch.label!r} (point {ch.point}) has no coordinates; "
+                f"expected every channel to carry its point's position to match it to a "
+                f"model node")
+        xyz = np.asarray(ch.coordinates_m)
+        dist = np.sqrt(((nodes - xyz) ** 2).sum(axis=1))
+        near = int(np.argmin(dist))
+        if dist[near] > tol:
+            raise DataFormatError(
+                f"{prefix}channel {ch.label!r} at point {ch.point} "
+                f"({xyz[0]:.6g}, {xyz[1]:.6g}, {xyz[2]:.6g}) m matches no model node "
+                f"within {tol:.3g} m: the nearest is node {near} at "
+                f"({nodes[near, 0]:.6g}, {nodes[near, 1]:.6g}, {nodes[near, 2]:.6g}) m, "
+                f"{dist[near]:.3g} m away")
+        out[k] = near
+    return out
 
 
 def channels_from_labels(labels: Sequence[str], quantities: Sequence[str]) -> tuple[Channel, ...]:

@@ -1,0 +1,432 @@
+"""Identify modal parameters from FRFData or from a data file.
+
+:func:`identify_frfs` runs a registered identifier (:data:`truthbench.identify.IDENTIFIERS`:
+``"plscf"`` or ``"peak"``) on one :class:`~truthbench.measure.FRFData` over a band, drops
+the lines it cannot use (0 Hz, non-finite values) and undoes the damping an exponential
+window added (:func:`correct_exponential_window`). :func:`identify_file` reads any file
+:func:`truthbench.io.load_frf` reads (``.h5``/``.hdf5`` results and ``simulate`` files,
+``.uff``/``.unv``, ``.lvm``) and identifies every FRFData in it.
+
+FRF types. The identifiers take displacement, velocity or acceleration FRFs; strain
+outputs count as displacement-type, and FRFData whose outputs measure several
+quantities are brought to displacement-equivalent FRFs first
+(:meth:`~truthbench.measure.FRFData.as_quantity`; the 0 Hz line is dropped).
+
+Default band: the data's own ``band_hz`` (the excited band of a campaign test, the
+force-spectrum rule of a time record), its low edge raised to the first line above
+0 Hz and its high edge lowered to the last line; without one, every line above 0 Hz.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from truthbench._validation import readonly
+from truthbench.identify.modal import ModalParameters, modal_from_poles, poles_from_modal
+from truthbench.identify.registry import get_identifier
+from truthbench.measure.frfdata import FRFData
+from truthbench.quantities import MOTION_QUANTITIES
+
+__all__ = [
+    "EULER_BERNOULLI_FREE_FREE_RATIOS",
+    "MIN_BAND_LINES",
+    "DatasetIdentification",
+    "IdentifyReport",
+    "correct_exponential_window",
+    "identify_file",
+    "identify_frfs",
+]
+
+#: Free-free Euler-Bernoulli frequency ratios of bending modes 2 and 3 to mode 1,
+#: ``(beta_n L / beta_1 L)^2`` with the roots 4.73004074486, 7.85320462410, 10.9956078380.
+EULER_BERNOULLI_FREE_FREE_RATIOS = (
+    (7.85320462410 / 4.73004074486) ** 2,
+    (10.9956078380 / 4.73004074486) ** 2,
+)
+
+#: Lines needed in an identification band.
+MIN_BAND_LINES = 8
+
+
+@dataclass(frozen=True, eq=False)
+class DatasetIdentification:
+    """The modal parameters identified from one :class:`FRFData`.
+
+    Attributes
+    ----------
+    data : FRFData
+        What was identified (after any conversion to one FRF type).
+    band_hz : (float, float)
+        The band used, Hz.
+    modal : ModalParameters
+        Identified modes, ascending in frequency; damping corrected for the exponential
+        window (``data.window_decay_rad_s``).
+    damping_ratio_uncorrected : ndarray, shape (n_modes,)
+        Damping ratios as identified, before that correction (equal when there was none).
+    peak_magnitude : ndarray, shape (n_modes,)
+        ``sum |H|`` over all channels at the line nearest each mode: the strength of the
+        mode in the data (units of H).
+    """
+
+    data: FRFData
+    band_hz: tuple[float, float]
+    modal: ModalParameters
+    damping_ratio_uncorrected: np.ndarray
+    peak_magnitude: np.ndarray
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.modal.n_modes)
+
+    def table(self) -> list[dict]:
+        """One dict per mode: mode (1-based), freq_hz, damping_ratio,
+        damping_ratio_uncorrected, peak_magnitude and, for several outputs, ``shape``
+        (real part of the shape scaled to a largest entry of 1, one value per output)."""
+        rows = []
+        shapes = np.asarray(self.modal.shapes)
+        for r in range(self.n_modes):
+            row = {
+                "mode": r + 1,
+                "freq_hz": float(self.modal.freq_hz[r]),
+                "damping_ratio": float(self.modal.damping_ratio[r]),
+                "damping_ratio_uncorrected": float(self.damping_ratio_uncorrected[r]),
+                "peak_magnitude": float(self.peak_magnitude[r]),
+            }
+            if shapes.shape[0] > 1:
+                row["shape"] = [float(v) for v in _real_shape(shapes[:, r])]
+            rows.append(row)
+        return rows
+
+    def strongest_ratios(self, count: int = 3) -> np.ndarray | None:
+        """Frequency ratios to the lowest of the ``count`` strongest modes.
+
+        The ``count`` modes with the largest ``peak_magnitude`` are sorted by
+        frequency; returns ``f_k / f_1`` for the 2nd..count-th, shape (count - 1,), or
+        None with fewer modes.
+        """
+        if self.n_modes < count:
+            return None
+        keep = np.sort(np.argsort(self.peak_magnitude)[::-1][:count])
+        f = np.asarray(self.modal.freq_hz)[keep]
+        return f[1:] / f[0]
+
+
+@dataclass(frozen=True, eq=False)
+class IdentifyReport:
+    """What :func:`identify_file` found in one file.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+    file_format : str
+        ``"hdf5"``, ``"uff"``, ``"lvm"`` (else the extension without its dot).
+    method : str
+        Registered identifier used (``"plscf"``, ``"peak"``).
+    max_order : int
+        Highest pLSCF model order (unused by ``"peak"``).
+    datasets : tuple of DatasetIdentification
+    """
+
+    path: Path
+    file_format: str
+    method: str
+    max_order: int
+    datasets: tuple[DatasetIdentification, ...] = field(default_factory=tuple)
+
+    def to_dict(self) -> dict:
+        """A JSON-serialisable summary (no FRF arrays)."""
+        return {
+            "path": str(self.path),
+            "file_format": self.file_format,
+            "method": self.method,
+            "max_order": self.max_order,
+            "datasets": [
+                {
+                    "name": d.data.name,
+                    "frf_type": d.data.frf_type,
+                    "excitation": d.data.excitation,
+                    "band_hz": list(d.band_hz),
+                    "window_decay_rad_s": d.data.window_decay_rad_s,
+                    "n_averages": d.data.n_averages,
+                    "output_labels": list(d.data.output_labels),
+                    "input_labels": list(d.data.input_labels),
+                    "notes": list(d.data.notes),
+                    "modes": d.table(),
+                }
+                for d in self.datasets
+            ],
+        }
+
+    def to_pandas(self):
+        """One row per (dataset, mode): dataset, mode, freq_hz, damping_ratio,
+        damping_ratio_uncorrected, peak_magnitude.
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        import pandas as pd
+
+        rows = [
+            {"dataset": d.data.name, **{k: v for k, v in row.items() if k != "shape"}}
+            for d in self.datasets
+            for row in d.table()
+        ]
+        columns = ["dataset", "mode", "freq_hz", "damping_ratio",
+                   "damping_ratio_uncorrected", "peak_magnitude"]
+        return pd.DataFrame(rows, columns=columns)
+
+
+def _real_shape(v: np.ndarray) -> np.ndarray:
+    """Rotate a complex shape so its largest entry is real positive; return the real
+    part scaled to a largest magnitude of 1."""
+    v = np.asarray(v, dtype=complex)
+    k = int(np.argmax(np.abs(v)))
+    if abs(v[k]) == 0:
+        return np.zeros(v.size)
+    return (v / v[k]).real
+
+
+def correct_exponential_window(modal: ModalParameters, sigma_w_rad_s: float) -> ModalParameters:
+    """Undo the damping an exponential window added: move every pole right by sigma_w.
+
+    The window multiplies the impulse response by ``exp(-sigma_w t)``, so each pole
+    ``s = -zeta w_n + j w_d`` was identified as ``s - sigma_w``; the corrected pole is
+    ``s + sigma_w`` and ``w_n = |s|``, ``zeta = -Re(s) / |s|``.
+
+    Parameters
+    ----------
+    modal : ModalParameters
+        As identified from windowed data.
+    sigma_w_rad_s : float
+        Window decay rate, 1/s (``-ln(decay_to) fs / (n - 1)``).
+
+    Returns
+    -------
+    ModalParameters
+        A new object with corrected frequencies and damping ratios (shapes, participation
+        and labels unchanged); ``modal`` itself when ``sigma_w_rad_s`` is 0.
+
+    Raises
+    ------
+    ValueError
+        If a corrected damping ratio would be negative (the mode decays more slowly than
+        the window: the window, not the structure, set its apparent damping).
+    """
+    if sigma_w_rad_s == 0 or modal.n_modes == 0:
+        return modal
+    s = poles_from_modal(modal.freq_hz, modal.damping_ratio) + sigma_w_rad_s
+    f, z = modal_from_poles(s)
+    if np.any(s.real > 0):
+        bad = np.asarray(modal.freq_hz)[s.real > 0]
+        raise ValueError(
+            f"correct_exponential_window: the modes at {np.round(bad, 3).tolist()} Hz decay "
+            f"more slowly ({-np.max(s.real - sigma_w_rad_s):.4g} 1/s) than the window adds "
+            f"({sigma_w_rad_s:.4g} 1/s); expected every identified decay rate above sigma_w"
+        )
+    return ModalParameters(freq_hz=f, damping_ratio=z, shapes=modal.shapes,
+                           participation=modal.participation,
+                           output_labels=modal.output_labels)
+
+
+def _resolve_band(data: FRFData, band_hz, source: str) -> tuple[float, float]:
+    f = data.freq_hz
+    positive = f[f > 0]
+    if band_hz is None:
+        if data.band_hz is not None:
+            lo, hi = data.band_hz
+            lo, hi = max(lo, float(positive[0])), min(hi, float(f[-1]))
+        else:
+            lo, hi = float(positive[0]), float(f[-1])
+    else:
+        try:
+            lo, hi = (float(v) for v in band_hz)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"{source}: band must be two frequencies (low, high) in Hz; got {band_hz!r}"
+            ) from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
+            raise ValueError(f"{source}: band must satisfy 0 <= low < high; got ({lo}, {hi}) Hz")
+        if lo < f[0] or hi > f[-1]:
+            raise ValueError(
+                f"{source}: band {lo:g}-{hi:g} Hz lies outside the data of {data.name!r}, "
+                f"which spans {f[0]:g}-{f[-1]:g} Hz; expected a band inside it"
+            )
+    n_lines = int(np.count_nonzero((f >= lo) & (f <= hi)))
+    if n_lines < MIN_BAND_LINES:
+        raise ValueError(
+            f"{source}: band {lo:g}-{hi:g} Hz holds {n_lines} frequency lines of "
+            f"{data.name!r} (df {f[1] - f[0]:g} Hz); expected at least {MIN_BAND_LINES}"
+        )
+    return lo, hi
+
+
+#: Options each registered identifier takes from :func:`identify_frfs`.
+_METHOD_OPTIONS: dict[str, Callable[[int, int | None], dict]] = {
+    "plscf": lambda max_order, n_modes: {"max_order": max_order},
+    "peak": lambda max_order, n_modes: {"n_modes": n_modes},
+}
+
+
+def _one_type(data: FRFData) -> FRFData:
+    """``data`` with outputs of one motion quantity (strain as displacement; mixed
+    quantities as displacement-equivalent)."""
+    if data.frf_type in MOTION_QUANTITIES:
+        return data
+    return data.as_quantity("displacement")
+
+
+def identify_frfs(
+    data: FRFData,
+    *,
+    method: str = "plscf",
+    max_order: int = 30,
+    band_hz: tuple[float, float] | None = None,
+    n_modes: int | None = None,
+    source: str = "",
+) -> DatasetIdentification:
+    """Identify modal parameters from one :class:`FRFData`.
+
+    Parameters
+    ----------
+    data : FRFData
+    method : {"plscf", "peak"}
+        A registered identifier (:data:`truthbench.identify.IDENTIFIERS`).
+    max_order : int
+        Highest pLSCF order.
+    band_hz : (float, float), optional
+        Band in Hz; must lie inside the data. Default: ``data.band_hz`` (or every line
+        above 0 Hz), see the module notes.
+    n_modes : int, optional
+        Peak picking: keep the ``n_modes`` most prominent peaks.
+    source : str
+        Name of the file, for error messages.
+
+    Returns
+    -------
+    DatasetIdentification
+        Modes ascending in frequency, damping corrected for an exponential window,
+        shapes labelled with the output labels.
+
+    Raises
+    ------
+    ValueError
+        Unknown method, band outside the data or with too few usable lines.
+    """
+    if method not in _METHOD_OPTIONS:
+        get_identifier(method)  # raises with the list of registered names
+        raise ValueError(f"identify_frfs has no options for method {method!r}; expected "
+                         f"one of {sorted(_METHOD_OPTIONS)}")
+    identifier = get_identifier(method)
+    data = _one_type(data)
+    where = source or data.name
+    band = _resolve_band(data, band_hz, where)
+    f, H = data.freq_hz, data.H
+    # the band's lines above 0 Hz (residual terms of velocity/displacement FRFs diverge
+    # at 0 Hz) with finite values (H1 is NaN where the input spectrum is singular)
+    keep = (f > 0) & (f >= band[0]) & (f <= band[1])
+    finite = np.isfinite(H).reshape(f.size, -1).all(axis=1)
+    if np.any(keep & ~finite):
+        warnings.warn(
+            f"{where}: {int(np.count_nonzero(keep & ~finite))} line(s) of "
+            f"{data.name!r} in the band {band[0]:g}-{band[1]:g} Hz hold non-finite FRF "
+            f"values (e.g. a singular input spectrum); they are left out",
+            stacklevel=2,
+        )
+    keep &= finite
+    if np.count_nonzero(keep) < MIN_BAND_LINES:
+        raise ValueError(
+            f"{where}: band {band[0]:g}-{band[1]:g} Hz holds "
+            f"{int(np.count_nonzero(keep))} usable (finite, above 0 Hz) lines of "
+            f"{data.name!r}; expected at least {MIN_BAND_LINES}"
+        )
+    raw = identifier(f[keep], H[keep], frf_type=data.frf_type, freq_range_hz=band,
+                     **_METHOD_OPTIONS[method](max_order, n_modes))
+    order = np.argsort(raw.freq_hz)
+    labelled = ModalParameters(
+        freq_hz=raw.freq_hz[order], damping_ratio=raw.damping_ratio[order],
+        shapes=raw.shapes[:, order],
+        participation=None if raw.participation is None else raw.participation[order],
+        output_labels=data.output_labels)
+    modal = correct_exponential_window(labelled, data.window_decay_rad_s)
+    idx = np.searchsorted(f, modal.freq_hz).clip(1, f.size - 1)
+    idx = np.where(np.abs(f[idx - 1] - modal.freq_hz) < np.abs(f[idx] - modal.freq_hz),
+                   idx - 1, idx)
+    strength = np.abs(H[idx]).reshape(idx.size, -1).sum(axis=1) if idx.size else np.zeros(0)
+    return DatasetIdentification(
+        data=data, band_hz=band, modal=modal,
+        damping_ratio_uncorrected=readonly(labelled.damping_ratio),
+        peak_magnitude=readonly(strength))
+
+
+_FORMATS = {".h5": "hdf5", ".hdf5": "hdf5", ".uff": "uff", ".unv": "uff", ".lvm": "lvm"}
+
+
+def identify_file(
+    path: str | PathLike,
+    *,
+    method: str = "plscf",
+    max_order: int = 30,
+    band_hz: tuple[float, float] | None = None,
+    n_modes: int | None = None,
+    **read_options: Any,
+) -> IdentifyReport:
+    """Load a data file (:func:`truthbench.io.load_frf`) and identify every FRFData in it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Results or ``simulate`` file (``.h5``), UFF (``.uff``/``.unv``) or LVM
+        (``.lvm``).
+    method : {"plscf", "peak"}
+        Registered identifier.
+    max_order : int
+        Highest pLSCF order (``>= 2``).
+    band_hz : (float, float), optional
+        Identification band, Hz, inside the data (default: per dataset, see the module
+        notes).
+    n_modes : int, optional
+        Peak picking: number of peaks kept.
+    **read_options
+        Passed to the file's reader: for time records ``excitation``, ``decay_to``,
+        ``force_width``, ``n_averages``, ``window``
+        (:func:`truthbench.measure.frfs_from_time`); ``coherence`` for UFF;
+        ``trials``, ``tests`` for results files.
+
+    Returns
+    -------
+    IdentifyReport
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    DataFormatError
+        Corrupt or truncated file, unknown extension, no input or output channel.
+    ValueError
+        Band outside the data, unknown method, bad options (e.g. an option the file's
+        reader does not take).
+    """
+    from truthbench.io import load_frf
+
+    if isinstance(max_order, bool) or not isinstance(max_order, int | np.integer) \
+            or max_order < 2:
+        raise ValueError(f"max_order must be an integer >= 2; got {max_order!r}")
+    p = Path(path)
+    frfs = load_frf(p, **read_options)
+    results = tuple(
+        identify_frfs(d, method=method, max_order=int(max_order), band_hz=band_hz,
+                      n_modes=n_modes, source=str(p))
+        for d in frfs
+    )
+    fmt = _FORMATS.get(p.suffix.lower(), p.suffix.lower().lstrip("."))
+    return IdentifyReport(path=p, file_format=fmt, method=method, max_order=int(max_order),
+                          datasets=results)

@@ -1,0 +1,825 @@
+"""FRFData <-> UFF files: FRF and coherence sets (58), units (164), points (2411).
+
+:func:`read_uff` is the ``.uff`` / ``.unv`` reader of :func:`truthbench.io.load_frf`;
+:func:`write_uff` writes FRFData for other tools. Both go through pyuff
+(:mod:`truthbench.io.uff` holds the dataset-58 layer).
+
+Reading
+-------
+* **FRF sets** (dataset 58, function type 4) become one :class:`~truthbench.measure.FRFData`
+  per load case (record 6, field 4; most files have one), ``H[:, i, j]`` from the set of
+  response DOF i and reference DOF j (in order of first appearance). A grid with a
+  missing (response, reference) pair is an error naming the pairs; so is a file cut at
+  a dataset boundary when its sets carry truthbench's grid size (see *ID lines*).
+* **Channels** come from record 6: the node is ``Channel.point``, the direction code
+  ``1..6`` is x, y, z, rx, ry, rz and a negative code the negative sense
+  (``Channel.sign = -1``), code 0 no direction. The output quantity is the ordinate
+  (numerator) specific data type through :func:`truthbench.quantities.by_uff_code`
+  (3 strain, 8 displacement, 11 velocity, 12 acceleration), or, for data type 0, the
+  quantity whose dimension the unit label has; the reference must be an excitation
+  force (denominator data type 13, or 0 with a force unit label), else the file has no
+  reference (force) channel and is refused.
+* **Units.** A dataset 164 gives the file's unit system: a value of dimension
+  (length^L force^F time^T) is divided by ``length_factor^L force_factor^F`` to give
+  SI (time is always s, angles rad). Every unit label of a set (ordinate, denominator,
+  or an FRF unit such as ``"mm/s^2/kN"`` in the ordinate label) that
+  :func:`truthbench.io.units.parse_unit` understands must agree with dataset 164 to
+  0.1 % (distinct units differ by factors of at least 1.09), and its record 9-11 unit
+  exponents, when not zero, must be the quantity's (L, F); else a
+  :class:`~truthbench.errors.DataFormatError` names the file, the set and both units.
+  Without a dataset 164 the labels set the units; a set without understood labels is
+  taken as SI (said in ``notes``).
+* **Coherence**: function type 6 sets of the same load case in the same file, or in a
+  separate file (``coherence=path``, which then replaces the file's own), are attached
+  to the matching (response, reference) pairs; they must cover the FRF grid exactly.
+* **Geometry**: dataset 2411 (or 15) node coordinates, scaled to metres by dataset
+  164's length factor, become ``Channel.coordinates_m`` of the channels at those nodes
+  (as written: coordinate systems (2420) are not applied, the frame is taken to be
+  global). :func:`truthbench.measure.match_points` maps them to model nodes.
+* **Time sets** (function type 1), used when the file holds no FRF sets, become H1
+  FRFs (:func:`truthbench.io.time_records.frf_from_channels`): the input is the force
+  channel (data type 13) or one named like an input.
+
+Writing
+-------
+:func:`write_uff` writes a dataset 151 (header), a 164 (SI: factors 1), a 2411 with the
+channels' points and coordinates, one dataset 58 FRF set (function type 4) per
+(output, input) pair, j outer and i inner, and (``coherence=True``) one coherence set
+(function type 6) per pair. Each FRFData is its own load case (1, 2, ...). Data type
+codes, unit labels and unit exponents follow the channels' quantities
+(:mod:`truthbench.quantities`); the entity names are the channels' stations when they
+are valid UFF names (1-10 ASCII characters).
+
+**Node numbering** (:func:`number_points`): if every channel has a point number and
+the numbers and coordinates agree one to one, those numbers are kept (a file read and
+written again keeps its points). Otherwise the distinct coordinates of all channels,
+sorted by (x, y, z), are numbered 1, 2, ...; then channels without coordinates get one
+number per distinct station, then per distinct label, in order of appearance. Channels
+at the same coordinates share a point (a driving point: sensor and actuator at one
+station). Only points with coordinates are written to 2411.
+
+ID lines (truthbench's convention, free text to other tools): ID 1 the FRFData name,
+ID 2 ``"<output label> / <input label>"``, ID 3 ``"grid=<n_out>x<n_in> row=<i> col=<j>"``
+(1-based), ID 4 ``"band_hz=<low>,<high>"``, ID 5 ``"n_averages=<n> excitation=<kind>
+window_decay_rad_s=<sigma>"``. The reader takes labels, name, band, averages,
+excitation and window decay from them when every set of a load case agrees, and checks
+the grid size; files of other tools simply lack them.
+
+Precision: ASCII keeps 12 significant digits per real or imaginary part (and per
+coherence value) and 6 for the frequency axis (the writer warns when the axis is not
+exact in 6 digits); 2411 coordinates keep 17 digits; ``binary=True`` ("58b") stores
+doubles: exact.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from os import PathLike
+from pathlib import Path
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from truthbench.errors import DataFormatError
+from truthbench.io.uff import (
+    DIRECTIONS,
+    _assemble_grid,
+    _assemble_time,
+    _base_set,
+    _check_delimiters,
+    _common_of,
+    _plan_abscissa,
+    _read_sets,
+    _write_sets,
+)
+from truthbench.io.units import SI, UNIT_SYMBOLS, UnitSystem, parse_unit, quantity_dimension
+from truthbench.quantities import RESPONSE_QUANTITIES, by_uff_code, quantity
+
+if TYPE_CHECKING:
+    from truthbench.measure.frfdata import Channel, FRFData
+
+__all__ = ["DIRECTION_CODES", "PointNumbers", "number_points", "read_uff", "write_uff"]
+
+DIRECTION_CODES = MappingProxyType({"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6})
+"""Channel direction -> UFF direction code (record 6); times ``Channel.sign``."""
+
+_DIRECTION_NAMES = {v: k for k, v in DIRECTION_CODES.items()}
+_FUNC_TIME, _FUNC_FRF, _FUNC_COHERENCE = 1, 4, 6
+_FREQUENCY_AXIS = (18, "Frequency", "Hz")
+_COHERENCE_AXIS = (0, "Coherence", "NONE")
+#: Relative agreement of a unit label with dataset 164 (distinct units differ by >= 9 %).
+UNIT_RTOL = 1e-3
+_KEY = re.compile(r"\b(grid|row|col|band_hz|n_averages|excitation|window_decay_rad_s)=(\S+)")
+
+
+# ======================================================================== points
+
+
+@dataclass(frozen=True)
+class PointNumbers:
+    """UFF point (node) numbers of the channels of several FRFData (:func:`number_points`).
+
+    Attributes
+    ----------
+    coordinates_m : Mapping[int, tuple of 3 float or None]
+        Point number -> coordinates, m (None for a point known only by station or label).
+    names : Mapping[int, str]
+        Point number -> the stations (or labels) at it, joined by ``"/"``.
+    outputs, inputs : tuple of tuple of int
+        Per FRFData, the point of each output / input channel.
+    """
+
+    coordinates_m: Mapping[int, tuple[float, float, float] | None]
+    names: Mapping[int, str]
+    outputs: tuple[tuple[int, ...], ...]
+    inputs: tuple[tuple[int, ...], ...]
+
+
+def _as_sequence(frfs) -> tuple[FRFData, ...]:
+    from truthbench.measure.frfdata import FRFData
+
+    items = (frfs,) if isinstance(frfs, FRFData) else tuple(frfs)
+    if not items:
+        raise ValueError("expected an FRFData or a non-empty sequence of FRFData; got none")
+    bad = [type(d).__name__ for d in items if not isinstance(d, FRFData)]
+    if bad:
+        raise ValueError(f"expected FRFData objects; got {bad[0]}")
+    return items
+
+
+def number_points(frfs) -> PointNumbers:
+    """Number the points of the channels of one or several FRFData (module notes).
+
+    Parameters
+    ----------
+    frfs : FRFData or sequence of FRFData
+
+    Returns
+    -------
+    PointNumbers
+    """
+    frfs = _as_sequence(frfs)
+    chans = [ch for d in frfs for ch in (*d.outputs, *d.inputs)]
+
+    def name_of(ch: Channel) -> str:
+        return ch.station or ch.label
+
+    # keep the channels' own point numbers when they name the points one to one
+    by_point: dict[int, tuple | None] = {}
+    kept = all(ch.point is not None and 0 < ch.point <= 2_147_483_647 for ch in chans)
+    if kept:
+        for ch in chans:
+            if by_point.setdefault(ch.point, ch.coordinates_m) != ch.coordinates_m:
+                kept = False
+                break
+    coords = [c for c in by_point.values() if c is not None]
+    if kept and len(set(coords)) == len(coords):
+        number = {id(ch): ch.point for ch in chans}
+    else:
+        keys: dict[tuple, int] = {}
+        for key in sorted({ch.coordinates_m for ch in chans if ch.coordinates_m is not None}):
+            keys[("xyz", key)] = len(keys) + 1
+        for ch in chans:
+            if ch.coordinates_m is None and ch.station is not None:
+                keys.setdefault(("station", ch.station), len(keys) + 1)
+        for ch in chans:
+            if ch.coordinates_m is None and ch.station is None:
+                keys.setdefault(("label", ch.label), len(keys) + 1)
+
+        def key_of(ch):
+            if ch.coordinates_m is not None:
+                return ("xyz", ch.coordinates_m)
+            return ("station", ch.station) if ch.station is not None else ("label", ch.label)
+
+        number = {id(ch): keys[key_of(ch)] for ch in chans}
+    coordinates: dict[int, tuple | None] = {}
+    names: dict[int, list[str]] = {}
+    for ch in chans:
+        n = number[id(ch)]
+        coordinates.setdefault(n, ch.coordinates_m)
+        if name_of(ch) not in names.setdefault(n, []):
+            names[n].append(name_of(ch))
+    order = sorted(coordinates)
+    return PointNumbers(
+        coordinates_m=MappingProxyType({n: coordinates[n] for n in order}),
+        names=MappingProxyType({n: "/".join(names[n]) for n in order}),
+        outputs=tuple(tuple(number[id(c)] for c in d.outputs) for d in frfs),
+        inputs=tuple(tuple(number[id(c)] for c in d.inputs) for d in frfs),
+    )
+
+
+# ======================================================================== writing
+
+
+def _ascii(text: str, limit: int) -> str:
+    text = "".join(c if c.isascii() and c.isprintable() else "?" for c in str(text)).strip()
+    return text[:limit] or "NONE"
+
+
+def _entity(ch: Channel) -> str:
+    s = ch.station
+    ok = s is not None and 0 < len(s) <= 10 and s.isascii() and s == s.strip() and " " not in s
+    return s if ok else "NONE"
+
+
+def _code(ch: Channel) -> int:
+    return 0 if ch.direction is None else DIRECTION_CODES[ch.direction] * ch.sign
+
+
+def _id_lines_for(d: FRFData, i: int, j: int) -> list[str]:
+    out, inp = d.outputs[i], d.inputs[j]
+    pair = f"{out.label} / {inp.label}"
+    ok = (" / " not in out.label and " / " not in inp.label and len(pair) <= 80
+          and pair.isascii() and "\n" not in pair)
+    lines = [
+        _ascii(d.name, 80),
+        pair if ok else "NONE",
+        f"grid={len(d.outputs)}x{len(d.inputs)} row={i + 1} col={j + 1}",
+        "NONE" if d.band_hz is None else f"band_hz={d.band_hz[0]!r},{d.band_hz[1]!r}",
+        (f"n_averages={d.n_averages if d.n_averages is not None else 'none'} "
+         f"excitation={d.excitation} window_decay_rad_s={d.window_decay_rad_s!r}"),
+    ]
+    return [line if len(line) <= 80 else "NONE" for line in lines]
+
+
+def _set_58(d: FRFData, i: int, j: int, *, func_type: int, func_id: int, load_case: int,
+            points: PointNumbers, k: int, spacing: int, binary: bool) -> dict:
+    out, inp = d.outputs[i], d.inputs[j]
+    if func_type == _FUNC_FRF:
+        q = quantity(out.quantity)
+        ordinate = (q.uff_code, out.quantity.capitalize(), out.unit)
+        denominator = (quantity("force").uff_code, "Force", inp.unit)
+        y = np.array(d.H[:, i, j], dtype=np.complex128)
+        exps = (quantity_dimension(out.quantity, out.direction),
+                quantity_dimension("force", inp.direction))
+    else:
+        ordinate, denominator = _COHERENCE_AXIS, None
+        y = np.array(d.coherence[:, i, j], dtype=np.float64)
+        exps = ((0, 0, 0), (0, 0, 0))
+    dset = _base_set(
+        func_type=func_type, func_id=func_id, id_lines=_id_lines_for(d, i, j),
+        x=np.array(d.freq_hz, dtype=np.float64), y=y, spacing=spacing, binary=binary,
+        rsp=(_entity(out), points.outputs[k][i], _code(out)),
+        ref=(_entity(inp), points.inputs[k][j], _code(inp)),
+        abscissa=_FREQUENCY_AXIS, ordinate=ordinate, denominator=denominator)
+    dset["load_case_id"] = load_case
+    dset["ordinate_len_unit_exp"], dset["ordinate_force_unit_exp"] = exps[0][:2]
+    dset["orddenom_len_unit_exp"], dset["orddenom_force_unit_exp"] = exps[1][:2]
+    return dset
+
+
+def _check_writable(d: FRFData, k: int) -> None:
+    for what, arr in (("H", d.H), ("coherence", d.coherence)):
+        if arr is None:
+            continue
+        bad = ~np.isfinite(arr).reshape(arr.shape[0], -1).all(axis=1)
+        if bad.any():
+            raise ValueError(
+                f"write_uff: FRFData {k} ({d.name!r}): {what} holds non-finite values at "
+                f"{int(bad.sum())} line(s) (first at {d.freq_hz[bad][0]:g} Hz); UFF cannot "
+                f"store them: expected finite values (drop those lines with "
+                f"FRFData.lines(mask))")
+    if d.freq_hz.size < 2 or np.any(np.diff(d.freq_hz) <= 0):
+        raise ValueError(f"write_uff: FRFData {k} ({d.name!r}): expected at least 2 "
+                         f"strictly increasing frequency lines; got {d.freq_hz.size}")
+
+
+def write_uff(path: str | PathLike, frfs, *, binary: bool = False,
+              coherence: bool = True) -> Path:
+    """Write FRFData as UFF: 151, 164 (SI), 2411 points, 58 FRF and coherence sets.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (``.uff`` or ``.unv``); replaced if it exists, through a temporary
+        file in the same folder (a failed write leaves no partial file).
+    frfs : FRFData or sequence of FRFData
+        Each becomes one load case (1, 2, ...), with ``n_out * n_in`` FRF sets; values in
+        SI units of the channels' quantities.
+    binary : bool
+        False: ASCII, 12 significant digits per part, frequency axis with 6 (warns if
+        that changes it). True: binary "58b", exact doubles.
+    coherence : bool
+        Also write each FRFData's coherence (if it has one) as function-type-6 sets.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    ValueError
+        Not FRFData, non-finite values, fewer than 2 frequency lines, or two channels of
+        one side on the same point and direction (the message names them).
+    """
+    from truthbench._version import __version__
+
+    frfs = _as_sequence(frfs)
+    for k, d in enumerate(frfs):
+        _check_writable(d, k)
+    points = number_points(frfs)
+    for k, d in enumerate(frfs):
+        for side, chans, pts in (("output", d.outputs, points.outputs[k]),
+                                 ("input", d.inputs, points.inputs[k])):
+            seen: dict[tuple[int, int], str] = {}
+            for ch, p in zip(chans, pts, strict=True):
+                other = seen.setdefault((p, _code(ch)), ch.label)
+                if other != ch.label:
+                    raise ValueError(
+                        f"write_uff: FRFData {k} ({d.name!r}): {side} channels {other!r} and "
+                        f"{ch.label!r} are both at point {p} direction code {_code(ch)}; "
+                        f"expected one channel per point and direction")
+    header = [
+        {"type": 151, "model_name": _ascii(frfs[0].name if len(frfs) == 1
+                                           else f"{len(frfs)} FRF data sets", 80),
+         "description": "FRFs (58, function type 4), coherence (type 6), SI units",
+         "db_app": "truthbench", "program": f"truthbench {__version__}"},
+        {"type": 164, "units_code": 1, "units_description": "SI", "temp_mode": 2,
+         "length": 1.0, "force": 1.0, "temp": 1.0, "temp_offset": 273.15},
+    ]
+    located = [(n, xyz) for n, xyz in points.coordinates_m.items() if xyz is not None]
+    if located:
+        header.append({
+            "type": 2411,
+            "node_nums": np.array([n for n, _ in located], dtype=np.int64),
+            "def_cs": np.ones(len(located), dtype=np.int64),
+            "disp_cs": np.ones(len(located), dtype=np.int64),
+            "color": np.ones(len(located), dtype=np.int64),
+            "x": np.array([xyz[0] for _, xyz in located]),
+            "y": np.array([xyz[1] for _, xyz in located]),
+            "z": np.array([xyz[2] for _, xyz in located]),
+        })
+    dsets = []
+    for k, d in enumerate(frfs):
+        spacing = _plan_abscissa(d.freq_hz, binary, f"FRFData {d.name!r}: freq_hz")
+        kinds = [_FUNC_FRF] + ([_FUNC_COHERENCE] if coherence and d.coherence is not None
+                               else [])
+        for func_type in kinds:
+            for j in range(len(d.inputs)):
+                for i in range(len(d.outputs)):
+                    dsets.append(_set_58(d, i, j, func_type=func_type, func_id=len(dsets) + 1,
+                                         load_case=k + 1, points=points, k=k,
+                                         spacing=spacing, binary=binary))
+    return _write_sets(path, dsets, binary, header_sets=header)
+
+
+# ======================================================================== reading
+
+
+@dataclass(frozen=True)
+class _File:
+    path: Path
+    units: UnitSystem | None
+    geometry: Mapping[int, tuple[float, float, float]]
+    sets58: list[tuple[int, dict]]
+    notes: tuple[str, ...]
+
+
+def _parse_file(p: Path) -> _File:
+    raw = p.read_bytes()
+    _check_delimiters(p, raw)
+    types, found = _read_sets(p, (58, 164, 2411, 15))
+    if not found[58]:
+        raise DataFormatError(
+            f"{p}: no dataset 58 (function at nodal DOF): the file holds dataset types "
+            f"{sorted(set(types))}")
+    notes = []
+    systems = {}
+    for k, d in found[164]:
+        try:
+            u = UnitSystem(code=int(d["units_code"]), description=str(d["units_description"]),
+                           length=float(d["length"]), force=float(d["force"]),
+                           temperature=float(d["temp"]),
+                           temperature_offset=float(d["temp_offset"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise DataFormatError(f"{p}: dataset {k} (type 164) is not a valid unit system: "
+                                  f"{exc}") from None
+        systems.setdefault((u.length, u.force), (k, u))
+    if len(systems) > 1:
+        shown = "; ".join(f"dataset {k}: {u.describe()}" for k, u in systems.values())
+        raise DataFormatError(f"{p}: several datasets 164 with different units ({shown}); "
+                              f"expected one unit system per file")
+    units = next(iter(systems.values()))[1] if systems else None
+    if units is None:
+        notes.append("no dataset 164: units from the labels, SI where they say nothing")
+    elif not units.is_si:
+        notes.append(f"dataset 164: {units.describe()}; converted to SI")
+    scale = 1.0 if units is None else 1.0 / units.length
+    geometry: dict[int, tuple[float, float, float]] = {}
+    for t in (2411, 15):
+        for k, d in found[t]:
+            nums = np.asarray(d["node_nums"], dtype=float)
+            if np.any(nums != np.round(nums)) or np.any(nums < 1):
+                raise DataFormatError(f"{p}: dataset {k} (type {t}): node numbers must be "
+                                      f"positive integers; got {nums[:5].tolist()}")
+            xyz = np.column_stack([d["x"], d["y"], d["z"]]).astype(float) * scale
+            for n, c in zip(nums.astype(int).tolist(), xyz.tolist(), strict=True):
+                c = tuple(float(v) for v in c)
+                if geometry.setdefault(n, c) != c:
+                    raise DataFormatError(
+                        f"{p}: node {n} has two positions, {geometry[n]} and {c} m (dataset "
+                        f"{k}, type {t}); expected one per node")
+    return _File(p, units, MappingProxyType(geometry), found[58], tuple(notes))
+
+
+def _unit_text(dim: tuple[int, int, int], units: UnitSystem) -> str:
+    """The unit of dimension ``dim`` in ``units``, e.g. ``"mm/s^2"``, ``"kN"``."""
+
+    def symbol(d, factor):
+        for name, (s, sd) in UNIT_SYMBOLS.items():
+            if sd == d and math.isclose(s * factor, 1.0, rel_tol=UNIT_RTOL) and name.isascii():
+                return name
+        return f"({1 / factor:g} {'m' if d == (1, 0, 0) else 'N'})"
+
+    parts = [(symbol((1, 0, 0), units.length), dim[0]), (symbol((0, 1, 0), units.force), dim[1]),
+             ("s", dim[2])]
+    num = " ".join(b if e == 1 else f"{b}^{e}" for b, e in parts if e > 0) or "1"
+    den = " ".join(b if e == -1 else f"{b}^{-e}" for b, e in parts if e < 0)
+    return num if not den else f"{num}/{den}" if " " not in den else f"{num}/({den})"
+
+
+def _set_where(d: Mapping, k: int, lc: int) -> str:
+    return (f"dataset {k} (load case {lc}, response node {int(d['rsp_node'])} dir "
+            f"{int(d['rsp_dir'])}, reference node {int(d['ref_node'])} dir "
+            f"{int(d['ref_dir'])})")
+
+
+def _response_quantity(p, d, k, lc, axis: str, allow_force: bool) -> str | None:
+    """Quantity of the ordinate: from its data type, else from its unit label."""
+    code = int(d.get(f"{axis}_spec_data_type", 0))
+    direction = _DIRECTION_NAMES.get(abs(int(d["rsp_dir"])))
+    q = by_uff_code(code) if code else None
+    if q is not None:
+        if q.name == "force" and not allow_force:
+            raise DataFormatError(
+                f"{p}: {_set_where(d, k, lc)}: the ordinate is an excitation force (data "
+                f"type 13); expected a response (acceleration 12, velocity 11, displacement "
+                f"8 or strain 3)")
+        return q.name
+    parsed = parse_unit(str(d.get(f"{axis}_axis_units_lab", "")))
+    if parsed is None:
+        return None
+    names = [*RESPONSE_QUANTITIES, *(("force",) if allow_force else ())]
+    matches = [n for n in names if quantity_dimension(n, direction) == parsed[1]]
+    return matches[0] if len(matches) == 1 else None
+
+
+def _is_force_reference(d: Mapping) -> bool:
+    code = int(d.get("orddenom_spec_data_type", 0))
+    if code:
+        return code == quantity("force").uff_code
+    parsed = parse_unit(str(d.get("orddenom_axis_units_lab", "")))
+    direction = _DIRECTION_NAMES.get(abs(int(d["ref_dir"])))
+    return parsed is not None and parsed[1] == quantity_dimension("force", direction)
+
+
+def _axis_factor(p, d, k, lc, axis: str, q: str, direction: str | None,
+                 units: UnitSystem | None, frf_dim=None) -> tuple[float, bool]:
+    """(factor to SI, understood) of one axis of a set; checks labels and exponents."""
+    dim = quantity_dimension(q, direction)
+    lab = str(d.get(f"{axis}_axis_units_lab", "")).strip()
+    exps = (int(d.get(f"{axis}_len_unit_exp", 0)), int(d.get(f"{axis}_force_unit_exp", 0)))
+    where = _set_where(d, k, lc)
+    if exps != (0, 0) and exps != dim[:2]:
+        raise DataFormatError(
+            f"{p}: {where}: the {axis} unit exponents (length {exps[0]}, force {exps[1]}) "
+            f"disagree with its quantity {q} (length {dim[0]}, force {dim[1]}); expected "
+            f"those or zeros")
+    parsed = parse_unit(lab)
+    if parsed is not None and parsed[1] not in (dim, frf_dim):
+        raise DataFormatError(
+            f"{p}: {where}: the {axis} unit {lab!r} is not a unit of {q} (expected "
+            f"{_unit_text(dim, units or SI)}, e.g. from dataset 164)")
+    if units is not None:
+        want = units.to_si(dim)
+        if parsed is not None and parsed[1] == dim and not math.isclose(
+                parsed[0], want, rel_tol=UNIT_RTOL):
+            raise DataFormatError(
+                f"{p}: {where}: the {axis} unit {lab!r} disagrees with dataset 164 "
+                f"({units.describe()}), whose unit of {q} is {_unit_text(dim, units)!r}; "
+                f"expected the labels and dataset 164 to agree")
+        return want, True
+    if parsed is not None and parsed[1] == dim:
+        return parsed[0], True
+    return 1.0, False
+
+
+def _meta(selected) -> tuple[dict[str, str], list[dict[str, str]]]:
+    """Keys of truthbench's ID-line convention shared by every set, and those per set."""
+    per = []
+    for _, d in selected:
+        found = {}
+        for m in (3, 4, 5):
+            for key, value in _KEY.findall(str(d.get(f"id{m}", ""))):
+                found[key] = value
+        per.append(found)
+    shared = {key: value for key, value in per[0].items()
+              if key not in ("row", "col") and all(f.get(key) == value for f in per)}
+    return shared, per
+
+
+def _number(p, lc, key, text, kind):
+    try:
+        value = kind(text)
+    except ValueError:
+        raise DataFormatError(f"{p}: load case {lc}: ID line value {key}={text!r} is not "
+                              f"{'an integer' if kind is int else 'a number'}") from None
+    return value
+
+
+def _labels_from_id2(selected, rows, cols, n_out, n_in):
+    outs: dict[int, str] = {}
+    ins: dict[int, str] = {}
+    for (_, d), i, j in zip(selected, rows, cols, strict=True):
+        parts = str(d.get("id2", "")).split(" / ")
+        if len(parts) != 2 or not all(x.strip() for x in parts):
+            return None
+        if outs.setdefault(i, parts[0].strip()) != parts[0].strip():
+            return None
+        if ins.setdefault(j, parts[1].strip()) != parts[1].strip():
+            return None
+    out_labels = [outs[i] for i in range(n_out)]
+    in_labels = [ins[j] for j in range(n_in)]
+    if len(set(out_labels)) != n_out or len(set(in_labels)) != n_in:
+        return None
+    return out_labels, in_labels
+
+
+def _group(sets: list[tuple[int, dict]], func_type: int) -> dict[int, list[tuple[int, dict]]]:
+    groups: dict[int, list[tuple[int, dict]]] = {}
+    for k, d in sets:
+        if int(d["func_type"]) == func_type:
+            groups.setdefault(int(d.get("load_case_id", 0)), []).append((k, d))
+    return groups
+
+
+def _coherence_grid(frf_file: _File, coh_file: _File, lc: int, selected, grid, freq):
+    """The coherence (n_freq, n_out, n_in) of load case ``lc`` in the FRF grid's order."""
+    p = coh_file.path
+    label = f" (coherence, load case {lc})"
+    common = _common_of(p, selected, _FUNC_COHERENCE,
+                        what=f"the coherence sets of load case {lc}")
+    coh = _assemble_grid(p, selected, common, label=label)
+    if coh.abscissa.shape != freq.shape or np.max(np.abs(coh.abscissa - freq)) > 1e-9 * max(
+            float(np.max(np.abs(freq))), 1.0):
+        raise DataFormatError(
+            f"{p}: load case {lc}: the coherence sets span {coh.abscissa.size} lines "
+            f"{coh.abscissa[0]:g}-{coh.abscissa[-1]:g} Hz, the FRF sets of {frf_file.path} "
+            f"{freq.size} lines {freq[0]:g}-{freq[-1]:g} Hz; expected the same lines")
+    rk = list(zip(grid.resp_nodes.tolist(), grid.resp_dirs.tolist(), strict=True))
+    fk = list(zip(grid.ref_nodes.tolist(), grid.ref_dirs.tolist(), strict=True))
+    crk = list(zip(coh.resp_nodes.tolist(), coh.resp_dirs.tolist(), strict=True))
+    cfk = list(zip(coh.ref_nodes.tolist(), coh.ref_dirs.tolist(), strict=True))
+    extra = [f"resp {r}" for r in crk if r not in rk] + [f"ref {f}" for f in cfk if f not in fk]
+    if extra:
+        raise DataFormatError(
+            f"{p}: load case {lc}: coherence sets for (node, dir) {extra} that have no FRF "
+            f"set in {frf_file.path}; expected coherence of the FRF pairs only")
+    missing = [f"resp {r} / ref {f}" for r in rk for f in fk if r not in crk or f not in cfk]
+    if missing:
+        raise DataFormatError(
+            f"{p}: load case {lc}: the coherence sets leave out the (node, dir) pairs "
+            f"{missing[:6]}{' ...' if len(missing) > 6 else ''}; expected one coherence set "
+            f"per FRF pair")
+    values = np.asarray(coh.H)
+    if np.iscomplexobj(values):
+        if np.any(values.imag != 0):
+            raise DataFormatError(f"{p}: load case {lc}: complex coherence values; expected "
+                                  f"real ones (function type 6)")
+        values = values.real
+    order_r = [crk.index(r) for r in rk]
+    order_f = [cfk.index(f) for f in fk]
+    return values[:, order_r][:, :, order_f]
+
+
+def _frf_group(f: _File, lc: int, selected, coherence_sets, coh_file: _File, several: bool):
+    from truthbench.measure.frfdata import Channel, FRFData
+
+    p = f.path
+    label = f" (load case {lc})" if several else ""
+    common = _common_of(p, selected, _FUNC_FRF, what=f"the FRF sets of load case {lc}")
+    grid = _assemble_grid(p, selected, common, label=label)
+    n_freq, n_out, n_in = grid.H.shape
+    rk = list(zip(grid.resp_nodes.tolist(), grid.resp_dirs.tolist(), strict=True))
+    fk = list(zip(grid.ref_nodes.tolist(), grid.ref_dirs.tolist(), strict=True))
+    rows = [rk.index((int(d["rsp_node"]), int(d["rsp_dir"]))) for _, d in selected]
+    cols = [fk.index((int(d["ref_node"]), int(d["ref_dir"]))) for _, d in selected]
+    shared, per = _meta(selected)
+    if "grid" in shared:
+        m = re.fullmatch(r"(\d+)x(\d+)", shared["grid"])
+        if m is None:
+            raise DataFormatError(f"{p}: load case {lc}: ID line 3 says grid="
+                                  f"{shared['grid']!r}; expected <n_out>x<n_in>")
+        want = (int(m.group(1)), int(m.group(2)))
+        if want != (n_out, n_in):
+            present = {(_number(p, lc, "row", q.get("row", "0"), int),
+                        _number(p, lc, "col", q.get("col", "0"), int)) for q in per}
+            missing = [f"row {i} / col {j}" for j in range(1, want[1] + 1)
+                       for i in range(1, want[0] + 1) if (i, j) not in present]
+            raise DataFormatError(
+                f"{p}: load case {lc}: the FRF sets say they form a {want[0]} x {want[1]} "
+                f"(response x reference) grid (ID line 3), the file holds {n_out} x {n_in}: "
+                f"missing pairs {missing[:6]}{' ...' if len(missing) > 6 else ''} (a file cut "
+                f"at a dataset boundary?); expected every pair")
+    # quantities per row, force per column, unit factors per set
+    q_row: dict[int, str] = {}
+    factor = np.ones((n_out, n_in))
+    assumed = False
+    for (k, d), i, j in zip(selected, rows, cols, strict=True):
+        where = _set_where(d, k, lc)
+        if not _is_force_reference(d):
+            raise DataFormatError(
+                f"{p}: {where}: no reference (force) channel: the denominator is of data "
+                f"type {int(d.get('orddenom_spec_data_type', 0))} with unit "
+                f"{str(d.get('orddenom_axis_units_lab', '')).strip()!r}; expected an "
+                f"excitation force (data type 13, unit N)")
+        q = _response_quantity(p, d, k, lc, "ordinate", allow_force=False)
+        if q is None:
+            raise DataFormatError(
+                f"{p}: {where}: cannot tell what the response measures: ordinate data "
+                f"type {int(d.get('ordinate_spec_data_type', 0))}, unit "
+                f"{str(d.get('ordinate_axis_units_lab', '')).strip()!r}; expected "
+                f"acceleration (12), velocity (11), displacement (8) or strain (3)")
+        if q_row.setdefault(i, q) != q:
+            raise DataFormatError(
+                f"{p}: {where}: the response measures {q} here and {q_row[i]} in another "
+                f"set of the same response DOF; expected one quantity per response")
+        rdir = _DIRECTION_NAMES.get(abs(int(d["rsp_dir"])))
+        fdir = _DIRECTION_NAMES.get(abs(int(d["ref_dir"])))
+        num_dim = quantity_dimension(q, rdir)
+        den_dim = quantity_dimension("force", fdir)
+        frf_dim = tuple(a - b for a, b in zip(num_dim, den_dim, strict=True))
+        lab = parse_unit(str(d.get("ordinate_axis_units_lab", "")))
+        if lab is not None and lab[1] == frf_dim and frf_dim != num_dim:
+            # the whole FRF unit in the ordinate label (e.g. "mm/s^2/kN"): check the
+            # exponents and the denominator label, then the FRF unit against 164
+            _axis_factor(p, d, k, lc, "ordinate", q, rdir, f.units, frf_dim)
+            _axis_factor(p, d, k, lc, "orddenom", "force", fdir, f.units)
+            if f.units is None:
+                factor[i, j] = lab[0]
+                continue
+            want = f.units.to_si(num_dim) / f.units.to_si(den_dim)
+            if not math.isclose(lab[0], want, rel_tol=UNIT_RTOL):
+                raise DataFormatError(
+                    f"{p}: {where}: the ordinate unit "
+                    f"{str(d.get('ordinate_axis_units_lab', '')).strip()!r} disagrees with "
+                    f"dataset 164 ({f.units.describe()}), whose FRF unit is "
+                    f"{_unit_text(frf_dim, f.units)!r}; expected them to agree")
+            factor[i, j] = want
+        else:
+            fn, ok_n = _axis_factor(p, d, k, lc, "ordinate", q, rdir, f.units)
+            fd, ok_d = _axis_factor(p, d, k, lc, "orddenom", "force", fdir, f.units)
+            factor[i, j] = fn / fd
+            assumed |= not (ok_n and ok_d)
+    H = grid.H * factor[None, :, :]
+    # coherence
+    coh = None
+    if coherence_sets:
+        coh = _coherence_grid(f, coh_file, lc, coherence_sets, grid, grid.freq_hz)
+    # channels
+    labels = _labels_from_id2(selected, rows, cols, n_out, n_in)
+    ours = "grid" in shared
+
+    def channel(node, code, q, lab, ent):
+        direction = _DIRECTION_NAMES.get(abs(code))
+        return Channel(
+            lab or f"{node}:{DIRECTIONS.get(code, code)}", q, direction,
+            sign=-1 if code < 0 else 1, point=node if node > 0 else None,
+            coordinates_m=f.geometry.get(node),
+            station=ent if ours and ent and ent != "NONE" else None)
+
+    outputs = [channel(n, c, q_row[i], labels[0][i] if labels else None, grid.resp_names[i])
+               for i, (n, c) in enumerate(rk)]
+    inputs = [channel(n, c, "force", labels[1][j] if labels else None, grid.ref_names[j])
+              for j, (n, c) in enumerate(fk)]
+    # what our ID lines say
+    name = str(selected[0][1].get("id1", "")).strip()
+    same_name = all(str(d.get("id1", "")).strip() == name for _, d in selected)
+    if not same_name or not name or name == "NONE":
+        name = p.stem + (f" load case {lc}" if several else "")
+    band = n_avg = None
+    excitation, decay = "frf", 0.0
+    if "band_hz" in shared:
+        lo, _, hi = shared["band_hz"].partition(",")
+        band = (_number(p, lc, "band_hz", lo, float), _number(p, lc, "band_hz", hi, float))
+    if shared.get("n_averages", "none") != "none":
+        n_avg = _number(p, lc, "n_averages", shared["n_averages"], int)
+    if shared.get("excitation") in ("frf", "impact", "random"):
+        excitation = shared["excitation"]
+    if "window_decay_rad_s" in shared:
+        decay = _number(p, lc, "window_decay_rad_s", shared["window_decay_rad_s"], float)
+    notes = [f"{n_out * n_in} FRF sets (dataset 58, function type 4) of load case {lc} read "
+             f"from {p.name}", *f.notes]
+    if assumed:
+        notes.append("some unit labels say nothing: those sets taken as SI")
+    if coh is not None:
+        notes.append(f"coherence from {coh_file.path.name}")
+    missing_xyz = sorted({n for n, _ in (*rk, *fk) if n > 0 and n not in f.geometry})
+    if f.geometry and missing_xyz:
+        notes.append(f"points {missing_xyz} have no coordinates in the file")
+    return FRFData(name=name, freq_hz=grid.freq_hz, H=H, outputs=outputs, inputs=inputs,
+                   coherence=coh, n_averages=n_avg, band_hz=band, excitation=excitation,
+                   window_decay_rad_s=decay, notes=tuple(notes))
+
+
+def _time_frf(f: _File, selected, options) -> FRFData:
+    from truthbench.io.time_records import frf_from_channels
+
+    p = f.path
+    common = _common_of(p, selected, _FUNC_TIME)
+    rec = _assemble_time(p, selected, common)
+    names, quantities, units, details = [], [], [], []
+    data = np.array(rec.data, dtype=float)
+    for c, (k, d) in enumerate(selected):
+        node, code = int(d["rsp_node"]), int(d["rsp_dir"])
+        direction = _DIRECTION_NAMES.get(abs(code))
+        q = _response_quantity(p, d, k, 0, "ordinate", allow_force=True)
+        if q is not None:
+            fac, _ = _axis_factor(p, d, k, int(d.get("load_case_id", 0)), "ordinate", q,
+                                  direction, f.units)
+            data[c] *= fac
+        ent = str(d.get("rsp_ent_name", "")).strip()
+        names.append(ent if ent and ent != "NONE" else f"{node}:{DIRECTIONS.get(code, code)}")
+        quantities.append(q)
+        units.append(str(d.get("ordinate_axis_units_lab", "")).strip())
+        details.append({"direction": direction, "sign": -1 if code < 0 else 1,
+                        "point": node if node > 0 else None,
+                        "coordinates_m": f.geometry.get(node)})
+    if len(set(names)) != len(names):
+        names = [f"{n}#{c}" for c, n in enumerate(names)]
+    return frf_from_channels(str(p), data, rec.dt_s, names, quantities, units=units,
+                             details=details, name=p.stem, **options)
+
+
+def read_uff(
+    path: str | PathLike,
+    *,
+    coherence: str | PathLike | None = None,
+    excitation: str = "auto",
+    decay_to: float = 0.01,
+    force_width: int | None = None,
+    n_averages: int = 8,
+    window: str = "hann",
+) -> tuple[FRFData, ...]:
+    """Read a UFF file into FRFData (the ``.uff`` / ``.unv`` reader; module notes).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ASCII or binary UFF with dataset 58 FRF sets (function type 4) or, failing
+        those, time sets (type 1); optionally 164 units, 2411/15 points, coherence sets.
+    coherence : str or os.PathLike, optional
+        A separate UFF file with the coherence sets (function type 6).
+    excitation, decay_to, force_width, n_averages, window
+        Time sets only: see :func:`truthbench.measure.frfs_from_time`.
+
+    Returns
+    -------
+    tuple of FRFData
+        One per load case of FRF sets (in SI units, with coherence and coordinates when
+        the file has them), or one from the time sets.
+
+    Raises
+    ------
+    FileNotFoundError
+        If a file does not exist.
+    DataFormatError
+        Corrupt or truncated file, a grid with missing pairs, no reference (force)
+        channel, units that disagree with dataset 164, coherence that does not fit the
+        FRFs, no FRF or time sets; the message names the file and the set.
+    """
+    p = Path(path)
+    f = _parse_file(p)
+    frf_groups = _group(f.sets58, _FUNC_FRF)
+    if frf_groups:
+        other = sorted({int(d["func_type"]) for _, d in f.sets58} - {_FUNC_FRF,
+                                                                     _FUNC_COHERENCE})
+        if other:
+            f = replace(f, notes=(*f.notes, f"dataset-58 sets of function type(s) {other} "
+                                            f"left out (FRF sets read)"))
+        coh_file = f if coherence is None else _parse_file(Path(coherence))
+        coh_groups = _group(coh_file.sets58, _FUNC_COHERENCE)
+        stray = sorted(set(coh_groups) - set(frf_groups))
+        if stray:
+            raise DataFormatError(
+                f"{coh_file.path}: coherence sets of load case(s) {stray}, but the FRF sets "
+                f"of {p} are of load case(s) {sorted(frf_groups)}; expected coherence of "
+                f"the FRF load cases")
+        several = len(frf_groups) > 1
+        return tuple(_frf_group(f, lc, sel, coh_groups.get(lc), coh_file, several)
+                     for lc, sel in frf_groups.items())
+    time_sets = [(k, d) for k, d in f.sets58 if int(d["func_type"]) == _FUNC_TIME]
+    if not time_sets:
+        types = sorted({int(d["func_type"]) for _, d in f.sets58})
+        raise DataFormatError(
+            f"{p}: the dataset-58 sets are of function type(s) {types}; expected FRFs "
+            f"(type 4) or time responses (type 1)")
+    options: dict[str, Any] = {"excitation": excitation, "decay_to": decay_to,
+                               "force_width": force_width, "n_averages": n_averages,
+                               "window": window}
+    return (_time_frf(f, time_sets, options),)
