@@ -36,6 +36,7 @@ from truthbench.effects import Hardware
 from truthbench.errors import CampaignError
 from truthbench.measure import estimate_frf
 from truthbench.measure.frfdata import Channel, FRFData
+from truthbench.measure.leakage import Estimator
 from truthbench.simulate import band_limited_random
 from truthbench.update import (
     APPENDED_PARAMETERS,
@@ -84,10 +85,14 @@ def measure_test(spec: CampaignSpec, j: int, u, y, params: dict, *,
     est = estimate_frf(u, y, test.fs_hz, estimator="H1", window=test.window,
                        n_averages=test.averages)
     outputs, inputs = channels(spec, *spec.test_io(j))
+    n = u.shape[1]
+    periodic = n % est.nperseg == 0  # the force is periodic over the record
     frf = FRFData(test.name, est.freq_hz, est.H, outputs, inputs, coherence=est.coherence,
                   n_averages=est.n_averages, band_hz=tuple(test.band_hz),
                   notes=(f"H1, {test.window} window, {est.n_averages} averages of "
-                         f"{est.nperseg} samples at {test.fs_hz:g} Hz",))
+                         f"{est.nperseg} samples at {test.fs_hz:g} Hz",),
+                  estimator=Estimator(test.window, est.nperseg, test.fs_hz,
+                                      n if periodic else None))
     record = TestRecord(test.name, frf, u, y, test.fs_hz, dict(params))
     return identify_record(spec, j, record) if identify else record
 

@@ -213,7 +213,9 @@ def _write_test(t, rec) -> None:
     _attrs(h, {"n_averages": -1 if frf.n_averages is None else frf.n_averages,
                "band_hz": np.nan * np.ones(2) if frf.band_hz is None else frf.band_hz,
                "excitation": frf.excitation, "window_decay_rad_s": frf.window_decay_rad_s,
-               "notes": json.dumps(list(frf.notes))})
+               "notes": json.dumps(list(frf.notes)),
+               "estimator": json.dumps(None if frf.estimator is None
+                                       else frf.estimator.to_dict())})
     if rec.coherence is not None:
         _dataset(t, "coherence", rec.coherence, "-")
     for name, chans in (("u", frf.inputs), ("y", frf.outputs)):
@@ -480,6 +482,11 @@ def _read_test(t, spec, j):
             meta = dict(n_averages=n_avg, band_hz=band, excitation=str(ha["excitation"]),
                         window_decay_rad_s=float(ha["window_decay_rad_s"]),
                         notes=tuple(json.loads(ha["notes"])))
+            est = json.loads(ha.get("estimator", "null"))
+            if est is not None:
+                from truthbench.measure.leakage import Estimator
+
+                meta["estimator"] = Estimator(**est)
         else:  # written before the FRF metadata was stored
             meta = dict(band_hz=None if j is None else tuple(spec.tests[j].band_hz))
         frf = FRFData(name, t["freq_hz"][()], h[()], outputs, inputs,

@@ -16,6 +16,7 @@ import numpy as np
 
 from truthbench._validation import check_array, check_choice, check_number, readonly
 from truthbench.errors import DataFormatError
+from truthbench.measure.leakage import Estimator
 from truthbench.quantities import QUANTITIES, convert_outputs, quantity
 
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
@@ -162,6 +163,9 @@ class FRFData:
         ``"frf"`` when the source held FRFs; else how time records were processed.
     window_decay_rad_s : float
         Decay rate (1/s) an exponential window added to every pole; 0 if none.
+    estimator : Estimator, optional
+        The averaged estimate's window and segments, when known (a model is compared
+        with the data through them, :mod:`truthbench.measure.leakage`).
     notes : tuple of str
         What was done to the data (windows, segments, conversions).
 
@@ -179,6 +183,7 @@ class FRFData:
     excitation: str = "frf"
     window_decay_rad_s: float = 0.0
     notes: tuple[str, ...] = field(default_factory=tuple)
+    estimator: Estimator | None = None
 
     def __post_init__(self):
         where = f"FRFData {self.name!r}"

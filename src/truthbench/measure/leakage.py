@@ -54,6 +54,37 @@ class LeakageKernel:
     lines_per_bin: int
 
 
+@dataclass(frozen=True)
+class Estimator:
+    """How an averaged FRF estimate was made: what :func:`h1_kernel` needs.
+
+    Parameters
+    ----------
+    window : str
+        Segment window name.
+    segment_samples : int
+        Segment length, samples.
+    fs_hz : float
+        Sampling rate, Hz.
+    period_samples : int, optional
+        The input's period when it was periodic (a whole number of segments), else None.
+    """
+
+    window: str
+    segment_samples: int
+    fs_hz: float
+    period_samples: int | None = None
+
+    def kernel(self) -> LeakageKernel:
+        return h1_kernel(self.window, self.segment_samples, self.fs_hz,
+                         period_samples=self.period_samples)
+
+    def to_dict(self) -> dict:
+        return {"window": self.window, "segment_samples": int(self.segment_samples),
+                "fs_hz": float(self.fs_hz), "period_samples": None
+                if self.period_samples is None else int(self.period_samples)}
+
+
 def h1_kernel(window: str, segment_samples: int, fs_hz: float, *,
               period_samples: int | None = None, lines_per_bin: int = 8,
               tail: float = 1e-6, max_bins: int = 64) -> LeakageKernel:
