@@ -62,6 +62,7 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 
+from truthbench._validation import readonly
 from truthbench.errors import ModelError
 
 from ._exact import (
@@ -196,12 +197,6 @@ def discretize(A, B, dt: float, hold: Hold = "foh"):
 # ----------------------------------------------------------------------------------
 # the prepared recursion
 # ----------------------------------------------------------------------------------
-
-
-def _readonly(x: np.ndarray) -> np.ndarray:
-    x = np.ascontiguousarray(x)
-    x.setflags(write=False)
-    return x
 
 
 @dataclass(frozen=True, eq=False)
@@ -411,9 +406,9 @@ def prepare_lti(A, B, C, D, dt: float, hold: Hold = "foh", method: Method = "aut
             n_inputs=n_in,
             n_outputs=n_out,
             cond=float(cond),
-            d=_readonly(d),
-            poles=_readonly(np.asarray(poles, complex)),
-            **{key: _readonly(val) for key, val in parts.items()},
+            d=readonly(np.ascontiguousarray(d)),
+            poles=readonly(np.ascontiguousarray(poles, complex)),
+            **{key: readonly(np.ascontiguousarray(val)) for key, val in parts.items()},
         )
 
     def state_path(poles):

@@ -90,6 +90,7 @@ from typing import ClassVar, Literal, Protocol, runtime_checkable
 import numpy as np
 import scipy.linalg
 
+from truthbench._validation import readonly
 from truthbench.errors import ConvergenceError, ModelError
 
 from . import _nonlinear_kernel as _kern
@@ -654,12 +655,6 @@ def _stack_rows(lists: list[np.ndarray], fill: int) -> np.ndarray:
     return out
 
 
-def _readonly(x: np.ndarray) -> np.ndarray:
-    x = np.ascontiguousarray(x)
-    x.setflags(write=False)
-    return x
-
-
 # ----------------------------------------------------------------------------------
 # engines
 # ----------------------------------------------------------------------------------
@@ -813,9 +808,9 @@ class NonlinearSystem:
                 "smaller dt"
             )
         return NonlinearResult(
-            y=_readonly(y), f_nl=_readonly(f), displacement=_readonly(disp),
-            velocity=_readonly(vel), stuck=_readonly(stuck),
-            n_stick_events=_readonly(n_stick), n_reversals=_readonly(n_rev), dt=self.dt,
+            y=readonly(y), f_nl=readonly(f), displacement=readonly(disp),
+            velocity=readonly(vel), stuck=readonly(stuck),
+            n_stick_events=readonly(n_stick), n_reversals=readonly(n_rev), dt=self.dt,
         )
 
 
