@@ -228,7 +228,15 @@ def test_pure_integrator_modal_zero_eigenvalue():
     u = np.sin(np.arange(50) * 0.3)
     y = rec.simulate(u, backend="numpy")
     trap = 2.0 * np.concatenate([[0.0], np.cumsum(0.05 * (u[1:] + u[:-1]))])
-    np.testing.assert_allclose(y[0], trap, rtol=1e-13, atol=1e-15)
+    # both are running sums: the recursion adds w0 q_j + w1 q_j+1 (two products, two
+    # additions), the oracle 0.05 (u_j + u_j+1) (an addition, a product, the cumsum's
+    # addition; the factor 2 is exact). Each rounding is at most u times the running sum
+    # plus the step's terms, and the errors add up over the steps (Higham, eq. 4.4)
+    unit = np.finfo(float).eps / 2
+    step = np.abs(trap[:-1]) + 0.1 * (np.abs(u[1:]) + np.abs(u[:-1]))
+    bound = (4 + 3) * unit * np.concatenate([[0.0], np.cumsum(step)])
+    assert np.all(np.abs(y[0] - trap) <= bound)
+    assert np.max(bound) < 1e-12 * np.max(np.abs(trap))  # a 1e-12 error would show
 
 
 def test_discretize_against_quadrature(systems):
