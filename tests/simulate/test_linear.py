@@ -396,6 +396,7 @@ def test_numba_many_outputs_and_inputs(rounding):
     rounding.detects(y_np, sigma)
 
 
+@pytest.mark.slow
 def test_works_without_numba():
     code = textwrap.dedent(
         """

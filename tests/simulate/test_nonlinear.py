@@ -269,6 +269,7 @@ def test_three_mass_chain_matches_event_located_solve_ivp():
 
 
 @pytest.mark.parametrize(("fc", "seed"), [(20.0, 3), (10.0, 4)])
+@pytest.mark.slow
 def test_two_sign_changes_within_one_step_match_solve_ivp(fc, seed):
     """Sampled at 80 Hz the chain's modes at 21 and 27 Hz make the friction point's
     velocity touch zero and come back within one step (stick and breakaway, or two
@@ -299,6 +300,7 @@ def test_rigid_body_mode_while_slipping_matches_solve_ivp():
     assert rel_err(res.y, ref) < 1e-8
 
 
+@pytest.mark.slow
 def test_friction_effect_on_frf_shrinks_with_level():
     """Friction is a constant force: at rising excitation its share of the response
     falls and the H1 estimate approaches the linear FRF (same input, simulate_lti)."""
@@ -325,6 +327,7 @@ def test_friction_effect_on_frf_shrinks_with_level():
 # ----------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_cubic_hardening_moves_the_resonance_up_with_level():
     a, b, c, _ = sdof(freq_hz=5.0, zeta=0.02)
     fs, n = 100.0, 2**13
@@ -378,6 +381,7 @@ def _smooth_reference(a, b, laws, u_coarse, dt_coarse, t_end, x0):
     return sol.y[0]
 
 
+@pytest.mark.slow
 def test_smooth_elements_converge_at_second_order_in_dt():
     a, b, c, _ = sdof(freq_hz=4.0, zeta=0.02)
     laws = [CubicStiffness(3e4), AmplitudeDependentDamping(20.0)]
