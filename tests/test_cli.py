@@ -6,6 +6,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
+
 from truthbench.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -21,6 +23,7 @@ def _small_campaign(tmp_path):
     return path
 
 
+@pytest.mark.slow
 def test_run_and_report(tmp_path, capsys, monkeypatch):
     camp = _small_campaign(tmp_path)
     out = tmp_path / "out"
@@ -147,6 +150,7 @@ def test_report_html_is_self_contained(tmp_path):
     assert "data:image/png;base64," in page and "f.png" not in page.split("base64,")[1]
 
 
+@pytest.mark.slow
 def test_place_sensors_scores_layouts(tmp_path, capsys):
     camp = _small_campaign(tmp_path)
     assert main(["place-sensors", str(camp), "--count", "3", "--score", "--trials", "1"]) == 0

@@ -75,6 +75,7 @@ def test_study_discretization(tmp_path, capsys):
     assert (tmp_path / "discretization.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_study_damping_smoothing(tmp_path, capsys):
     assert run(["study", "damping-smoothing", "--out", str(tmp_path), "--seed", "3",
                 "--seeds", "1"]) == 0

@@ -7,6 +7,7 @@ from truthbench.campaign.runner import run_campaign
 from truthbench.campaign.spec import parse_campaign
 
 
+@pytest.mark.slow
 def test_quickstart_noise_free_recovers_E_and_rho_within_half_percent(quickstart_dict):
     for t in quickstart_dict["tests"]:
         t["noise_fraction"] = 0.0
@@ -30,6 +31,7 @@ def test_thickness_beside_E_and_rho_is_reported_unidentifiable(small_dict):
     assert len(trial.tests) == 2  # the measurements are kept
 
 
+@pytest.mark.slow
 def test_same_seed_same_data_and_worker_count_does_not_matter(small_dict):
     spec = parse_campaign(small_dict)
     a = run_campaign(spec, trials=2, n_jobs=1)
@@ -67,6 +69,7 @@ def test_stage_seconds_are_recorded(small_dict):
     assert result.stage_seconds == pytest.approx(seconds)
 
 
+@pytest.mark.slow
 def test_changing_one_test_changes_only_that_test(small_dict):
     a = run_campaign(parse_campaign(small_dict)).trials[0]
     small_dict["tests"][1]["level_rms"] = 5.0
@@ -80,6 +83,7 @@ def test_trials_override_must_be_positive(small_dict):
         run_campaign(parse_campaign(small_dict), trials=0)
 
 
+@pytest.mark.slow
 def test_time_path_agrees_with_periodic_steady_state(small_dict):
     """The first-order-hold time simulation (8x oversampled, pre-emphasised, warmed up)
     against the exact periodic steady state: the same force realisation gives responses
@@ -148,6 +152,7 @@ def test_identified_shapes_match_the_truth_with_suspension_modes_in_band(quickst
     assert np.all(best >= 0.999), best
 
 
+@pytest.mark.slow
 def test_finite_difference_updates_delay_and_sensor_gain(quickstart_dict):
     """Appended dynamics: a 1.5 ms output delay and a +4 % sensor gain in the truth,
     updated beside E from noise-free data (the delay additively from 0)."""
@@ -185,6 +190,7 @@ def test_appended_parameters_are_refused_for_sensitivity(quickstart_dict):
         parse_campaign(quickstart_dict, "cfg.toml")
 
 
+@pytest.mark.slow
 def test_sensitivity_updates_the_hub_damper_from_identified_damping():
     """Hub beam, two noise-free tests, truth damper +40 %: sensitivity localization with
     the identified damping ratios recovers it. Bar 2 %: identified damping carries the

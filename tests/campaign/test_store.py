@@ -259,6 +259,7 @@ def test_accuracy_against_truth_is_stored_and_improves(small_dict, tmp_path):
     assert np.all(acc["updated"]["mac"] > 0.99)
 
 
+@pytest.mark.slow
 def test_methods_side_by_side_and_uncertainty_stage(small_dict, tmp_path):
     """Both updaters run on the same data; the uncertainty stage bounds the identified
     poles and records whether each test's true poles lie inside."""

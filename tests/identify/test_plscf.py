@@ -107,6 +107,7 @@ def test_stabilization_diagram_structure_and_plot(synthetic, tmp_path):
     assert np.all(sel.n_members >= 0.4 * d.orders.size)
 
 
+@pytest.mark.slow
 def test_noisy_bias_and_scatter_over_seeds(synthetic, record_property):
     """Additive complex noise, std = eps * RMS of each FRF over the band, 20 seeds.
 
@@ -155,6 +156,7 @@ def test_noisy_bias_and_scatter_over_seeds(synthetic, record_property):
     print("\n".join(lines))
 
 
+@pytest.mark.slow
 def test_refinement_removes_the_noise_bias(synthetic, record_property):
     """Output-error refinement (ML for this noise) at eps = 5 %, 10 seeds.
 

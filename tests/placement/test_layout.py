@@ -29,6 +29,7 @@ def small_spec():
     return parse_campaign(d)
 
 
+@pytest.mark.slow
 def test_the_campaigns_own_layout_reproduces_the_campaign(small_spec):
     labels = campaign_dof_labels(small_spec)
     assert labels == ["n0.z", "n4.z", "n8.z"]

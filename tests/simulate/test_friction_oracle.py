@@ -52,13 +52,16 @@ def test_turning_point_on_a_sample_instant():
     assert abs(x[-1]) <= FC / K * 1.02
 
 
-def test_zero_friction_equals_linear():
+def test_zero_friction_equals_linear(rounding):
     A = np.array([[0.0, 1.0], [-40.0, -0.5]])
     B = np.array([[0.0], [1.0]])
     C = np.eye(2)
     u = np.random.default_rng(1).standard_normal((1, 4000))
     elem = NonlinearElement(CoulombFriction(0.0), np.array([1.0, 0.0]), np.array([0.0, 1.0]),
                             np.array([0.0, 1.0]))
-    y_nl = simulate_nonlinear(A, B, C, None, u, 1e-3, [elem]).y
+    res = simulate_nonlinear(A, B, C, None, u, 1e-3, [elem])
     y = simulate_lti(A, B, C, None, u, 1e-3)
-    np.testing.assert_allclose(y_nl, y, rtol=1e-10, atol=1e-12 * np.abs(y).max())
+    # the same exact recursion in two realisations: rounding only (F_c = 0: no event term)
+    sigma, extra = rounding.nonlinear(A, B, [elem], u, 1e-3, res, C)
+    rounding.check(res.y, y, sigma, extra=extra)
+    rounding.detects(y, sigma, extra)

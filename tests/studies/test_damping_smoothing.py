@@ -35,6 +35,7 @@ def test_sdof_state_space_is_the_chapter_transfer_function():
     np.testing.assert_allclose(poles, expected, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_error_falls_with_points_per_window(study):
     mean, std = study.error_stats("bartlett", "amplification")
     assert np.all(np.diff(mean) < 0)
@@ -47,6 +48,7 @@ def test_error_falls_with_points_per_window(study):
     assert ham[0] > 30.0 and abs(ham[2]) < 15.0
 
 
+@pytest.mark.slow
 def test_peaks_overestimate_damping_and_keep_the_frequency(study):
     err = study.relative_error_pct[0, 0, 0]  # bartlett, amplification, N = 1000
     assert np.all(err > 0)  # a smoothed peak is lower, so it reads more damping
@@ -57,6 +59,7 @@ def test_peaks_overestimate_damping_and_keep_the_frequency(study):
     assert np.all(f_err[:, 1:] < 0.25 * study.half_power_bandwidth_hz)
 
 
+@pytest.mark.slow
 def test_floor_is_the_first_order_hold_factor(study):
     # exact sampled FRF near f_n: H(j w) sinc^2(f / fs); 1 / (2 Q) = zeta sqrt(1 - zeta^2)
     zeta, f, fs = 0.01, 10.0, 200.0
@@ -65,12 +68,14 @@ def test_floor_is_the_first_order_hold_factor(study):
     assert study.floor_damping_ratio["half_power"] == pytest.approx(zeta, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_points_do_not_depend_on_the_other_points(study):
     alone = damping_smoothing_study([3162], windows=("bartlett",), n_seeds=2, seed=7)
     np.testing.assert_array_equal(alone.damping_estimates[0, :, 0],
                                   study.damping_estimates[0, :, 1, :2])
 
 
+@pytest.mark.slow
 def test_to_pandas_and_plot(study, tmp_path):
     frame = study.to_pandas()
     assert len(frame) == 2 * 2 * 3
@@ -99,6 +104,7 @@ def test_bad_arguments(kwargs, match):
         damping_smoothing_study(**{"points_per_window": [100], "n_seeds": 1, **kwargs})
 
 
+@pytest.mark.slow
 def test_error_stats_rejects_unknown_names(study):
     with pytest.raises(ValueError, match="window must be one of"):
         study.error_stats("hann")

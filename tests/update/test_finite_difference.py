@@ -40,6 +40,7 @@ def test_linear_problem_matches_numpy_lstsq():
     np.testing.assert_allclose(got, expected, rtol=1e-8, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_recovers_E_and_rho_from_exact_truth_frfs():
     plant = make_plant("free_free_beam", n_elements=12)
     acts, sens = [Actuator("end_a", "z")], [Sensor("end_a", "z"), Sensor("mid", "z"),

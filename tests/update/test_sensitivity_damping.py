@@ -236,6 +236,7 @@ def test_hub_damper_alone_through_the_registry_with_build_model():
     assert res.converged and abs(res.values[0] / 3.0 - 1) < 1e-8
 
 
+@pytest.mark.slow
 def test_large_dashpot_fixed_point_is_exact_though_the_jacobian_is_not():
     """A dashpot of 50 N m s/rad (zeta_1 = 5.7 %, |s_1| 2 % below the real-mode
     frequency): the first-order Jacobian is off by about 46 % on mode 1, so the

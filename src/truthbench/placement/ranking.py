@@ -64,13 +64,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from truthbench._validation import readonly
 from truthbench.errors import ModelError
-
-
-def _readonly(a, dtype=None) -> np.ndarray:
-    out = np.array(a, dtype=dtype, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True)
@@ -271,8 +266,8 @@ def rank_sensors_by_sensitivity(
     scores = np.sqrt(contrib.sum(axis=1))
     k = max(1, min(n, p)) if n_select is None else int(n_select)
     sel = greedy_d_optimal(S, k, ridge=ridge)
-    return SensorRanking(lab, _readonly(scores, float), _readonly(_order(scores)),
-                         _readonly(sel), _readonly(contrib, float), "sensitivity")
+    return SensorRanking(lab, readonly(scores, float), readonly(_order(scores)),
+                         readonly(sel), readonly(contrib, float), "sensitivity")
 
 
 @dataclass(frozen=True)
@@ -413,9 +408,9 @@ def shape_sensitivities(
         dphi[:, :, j] = (Pp - Pm) / (2 * h[j])
         dom[:, j] = (wp - wm) / (2 * h[j])
     return ShapeSensitivities(
-        dphi=_readonly(dphi, float), domega_rad_s=_readonly(dom, float),
-        mode_indices=_readonly(idx, int), omega_rad_s=_readonly(nom.omega_rad_s[idx], float),
-        shapes=_readonly(nom.shapes[:, idx], float), steps=_readonly(h, float))
+        dphi=readonly(dphi, float), domega_rad_s=readonly(dom, float),
+        mode_indices=readonly(idx, int), omega_rad_s=readonly(nom.omega_rad_s[idx], float),
+        shapes=readonly(nom.shapes[:, idx], float), steps=readonly(h, float))
 
 
 # ---- observability gramian ------------------------------------------------------------
@@ -633,5 +628,5 @@ def rank_sensors_by_gramian(
         scores = G @ w / w.sum()
     else:
         scores = G @ w
-    return SensorRanking(_labels(labels, n), _readonly(scores, float),
-                         _readonly(_order(scores)), None, _readonly(G, float), "gramian")
+    return SensorRanking(_labels(labels, n), readonly(scores, float),
+                         readonly(_order(scores)), None, readonly(G, float), "gramian")

@@ -46,21 +46,41 @@ Each path runs on one of two engines with identical results to rounding: a fused
 extra, can be imported) or numpy/``scipy.signal.lfilter`` (always available).
 
 This room (``truthbench.simulate``) owns excitation signals, sensor noise and time
-simulation; this module owns the linear part.
+simulation; this module owns the linear part. The pieces of the method above that the
+nonlinear engine (:mod:`~truthbench.simulate.nonlinear`) uses as well -- the entry checks,
+the eigen-decomposition and conjugate pairing, the defective-block split and rigid-body
+snap, the exact (Van Loan) discretisation and the ``phi`` functions -- live in the
+private module ``truthbench.simulate._exact``.
 """
 
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 import scipy.linalg
 
+from truthbench._validation import readonly
 from truthbench.errors import ModelError
 
+from ._exact import (
+    COND_MAX,
+    KAPPA_DEFECTIVE,
+    block_split,
+    check_dt,
+    check_hold,
+    check_input,
+    check_system,
+    check_x0,
+    defective_selection,
+    eig,
+    pairs,
+    phi12,
+    snap_zero_cluster,
+    van_loan,
+)
 from ._kernels import run_numpy
 
 __all__ = [
@@ -75,16 +95,6 @@ __all__ = [
 Hold = Literal["foh", "zoh"]
 Method = Literal["auto", "modal", "state"]
 Backend = Literal["auto", "numba", "numpy"]
-
-#: Largest condition number of an eigenvector matrix accepted for the modal path.
-COND_MAX = 1e8
-#: Eigenvalue condition number (``||left|| ||right|| / |left^H right|``) above which an
-#: eigenvalue is moved into the dense block once the modal path has been refused
-#: (a defective rigid-body pair has ~1e8 or infinity; moving a merely ill-conditioned
-#: eigenvalue there costs speed, never accuracy).
-_KAPPA_DEFECTIVE = 1e4
-_N_TAYLOR = 20
-
 
 # ----------------------------------------------------------------------------------
 # engines
@@ -121,114 +131,6 @@ def _engine(backend: str):
     from ._kernels_numba import run_numba
 
     return run_numba
-
-
-# ----------------------------------------------------------------------------------
-# validation
-# ----------------------------------------------------------------------------------
-
-
-def _matrix(name: str, value, shape: tuple[int | None, int | None]) -> np.ndarray:
-    arr = np.asarray(value)
-    if np.iscomplexobj(arr):
-        raise ModelError(f"matrix {name} must be real; got a complex array")
-    try:
-        arr = np.array(arr, dtype=float)  # a private copy: inputs are never touched
-    except (TypeError, ValueError) as exc:
-        raise ModelError(f"matrix {name} must be a real numeric array; got {value!r}") from exc
-    if arr.ndim != 2:
-        raise ModelError(
-            f"matrix {name} must be 2-D with shape {_fmt_shape(shape)}; "
-            f"got an array of shape {arr.shape}"
-        )
-    for axis, (want, got) in enumerate(zip(shape, arr.shape, strict=True)):
-        if want is not None and want != got:
-            what = "rows" if axis == 0 else "columns"
-            raise ModelError(
-                f"matrix {name} has the wrong number of {what}; expected {want} instead "
-                f"of {got} (expected shape {_fmt_shape(shape)}, got {arr.shape})"
-            )
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f"matrix {name} contains non-finite values (nan or inf)")
-    return arr
-
-
-def _fmt_shape(shape) -> str:
-    return "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
-
-
-def _check_system(A, B, C, D):
-    a = _matrix("A", A, (None, None))
-    n = a.shape[0]
-    if a.shape[1] != n:
-        raise ModelError(f"matrix A must be square; got shape {a.shape}")
-    b = _matrix("B", B, (n, None))
-    c = _matrix("C", C, (None, n))
-    if D is None:
-        d = np.zeros((c.shape[0], b.shape[1]))
-    else:
-        d = _matrix("D", D, (c.shape[0], b.shape[1]))
-    return a, b, c, d
-
-
-def _check_dt(dt) -> float:
-    try:
-        value = float(dt)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"dt must be a positive finite time step in s; got {dt!r}") from exc
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"dt must be a positive finite time step in s; got {dt!r}")
-    return value
-
-
-def _check_hold(hold) -> str:
-    if hold not in ("foh", "zoh"):
-        raise ValueError(f"hold must be 'foh' or 'zoh'; got {hold!r} instead")
-    return hold
-
-
-def _check_input(u, n_in: int) -> np.ndarray:
-    arr = np.asarray(u)
-    if np.iscomplexobj(arr):
-        raise ValueError("input u must be real; got a complex array")
-    arr = np.array(arr, dtype=float)
-    if arr.ndim == 1 and n_in == 1:
-        arr = arr[np.newaxis, :]
-    if arr.ndim != 2:
-        raise ValueError(
-            f"input u must have shape (n_inputs={n_in}, n_samples); "
-            f"got an array of shape {arr.shape}"
-        )
-    if arr.shape[0] != n_in:
-        raise ValueError(
-            f"input u has the wrong number of rows; expected {n_in} (one per input, "
-            f"shape (n_inputs, n_samples)) instead of {arr.shape[0]} "
-            f"(got shape {arr.shape})"
-        )
-    if arr.shape[1] < 1:
-        raise ValueError(f"input u must have at least one sample; got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(
-            f"input u must be finite; got a non-finite value at row {bad[0]}, sample {bad[1]}"
-        )
-    return np.ascontiguousarray(arr)
-
-
-def _check_x0(x0, n: int) -> np.ndarray:
-    if x0 is None:
-        return np.zeros(n)
-    arr = np.asarray(x0)
-    if np.iscomplexobj(arr):
-        raise ValueError("initial state x0 must be real; got a complex array")
-    arr = np.array(arr, dtype=float)
-    if arr.ndim == 2 and arr.shape[1] == 1:  # a column vector is accepted
-        arr = arr[:, 0]
-    if arr.shape != (n,):
-        raise ValueError(f"initial state x0 must have shape ({n},); got shape {np.shape(x0)}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError("initial state x0 must be finite; got nan or inf")
-    return arr
 
 
 # ----------------------------------------------------------------------------------
@@ -275,8 +177,8 @@ def discretize(A, B, dt: float, hold: Hold = "foh"):
     ValueError
         If ``dt`` is not positive and finite or ``hold`` is unknown.
     """
-    dt = _check_dt(dt)
-    hold = _check_hold(hold)
+    dt = check_dt(dt)
+    hold = check_hold(hold)
     a = np.asarray(A)
     b = np.asarray(B)
     if a.ndim != 2 or a.shape[0] != a.shape[1]:
@@ -289,61 +191,12 @@ def discretize(A, B, dt: float, hold: Hold = "foh"):
     if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
         raise ModelError("matrices A and B must be finite; got nan or inf")
     dtype = np.result_type(a, b, float)
-    return _discretize(a.astype(dtype), b.astype(dtype), dt, hold)
-
-
-def _discretize(a, b, dt, hold):
-    n, n_in = b.shape
-    if hold == "zoh":
-        m = np.zeros((n + n_in, n + n_in), dtype=a.dtype)
-        m[:n, :n] = a * dt
-        m[:n, n:] = b * dt
-        e = scipy.linalg.expm(m)
-        return e[:n, :n].copy(), e[:n, n:].copy(), np.zeros_like(b)
-    m = np.zeros((n + 2 * n_in, n + 2 * n_in), dtype=a.dtype)
-    m[:n, :n] = a * dt
-    m[:n, n : n + n_in] = b * dt
-    m[n : n + n_in, n + n_in :] = np.eye(n_in)
-    e = scipy.linalg.expm(m)
-    bd1 = e[:n, n + n_in :].copy()
-    bd0 = e[:n, n : n + n_in] - bd1
-    return e[:n, :n].copy(), bd0, bd1
-
-
-def _phi12(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``phi1(a) = (e^a - 1)/a`` and ``phi2(a) = (e^a - 1 - a)/a^2``, accurate at 0."""
-    a = np.asarray(a, dtype=complex)
-    phi1 = np.empty_like(a)
-    phi2 = np.empty_like(a)
-    small = np.abs(a) < 0.5
-    if np.any(small):
-        x = a[small]
-        # Horner on sum_k x^k/(k+1)! and sum_k x^k/(k+2)!; error < 0.5^20/20! ~ 4e-25
-        p1 = np.full_like(x, 1.0 / math.factorial(_N_TAYLOR + 1))
-        p2 = np.full_like(x, 1.0 / math.factorial(_N_TAYLOR + 2))
-        for k in range(_N_TAYLOR - 1, -1, -1):
-            p1 = p1 * x + 1.0 / math.factorial(k + 1)
-            p2 = p2 * x + 1.0 / math.factorial(k + 2)
-        phi1[small] = p1
-        phi2[small] = p2
-    big = ~small
-    if np.any(big):
-        x = a[big]
-        p1 = np.expm1(x) / x
-        phi1[big] = p1
-        phi2[big] = (p1 - 1.0) / x
-    return phi1, phi2
+    return van_loan(a.astype(dtype), b.astype(dtype), dt, hold)
 
 
 # ----------------------------------------------------------------------------------
 # the prepared recursion
 # ----------------------------------------------------------------------------------
-
-
-def _readonly(x: np.ndarray) -> np.ndarray:
-    x = np.ascontiguousarray(x)
-    x.setflags(write=False)
-    return x
 
 
 @dataclass(frozen=True, eq=False)
@@ -424,8 +277,8 @@ class LtiRecursion:
             Output samples at ``t_j``.
         """
         run = _engine(backend)
-        uu = _check_input(u, self.n_inputs)
-        x = _check_x0(x0, self.n_states)
+        uu = check_input(u, self.n_inputs)
+        x = check_x0(x0, self.n_states)
         xi0 = self.to_block @ x
         z0 = self.to_modal @ x
         return run(
@@ -445,44 +298,6 @@ class LtiRecursion:
         )
 
 
-def _pairs(s: np.ndarray):
-    """Indices of one mode per conjugate pair (imag > 0) plus real modes, and weights.
-
-    Returns None unless the complex eigenvalues come in exactly conjugate pairs (LAPACK
-    returns them so for a real matrix).
-    """
-    upper = np.flatnonzero(s.imag > 0)
-    lower = np.flatnonzero(s.imag < 0)
-    real = np.flatnonzero(s.imag == 0)
-    if upper.size != lower.size:
-        return None
-    if not np.array_equal(np.sort_complex(np.conj(s[upper])), np.sort_complex(s[lower])):
-        return None
-    keep = np.concatenate([upper, real])
-    weight = np.concatenate([np.full(upper.size, 2.0), np.ones(real.size)])
-    return keep, weight
-
-
-def _eig(a: np.ndarray):
-    """Eigenvalues, unit eigenvectors, their inverse and the Frobenius condition number.
-
-    ``||V||_F ||V^-1||_F`` is an upper bound of the 2-norm condition number (at most
-    ``n`` times it) that costs no extra decomposition.
-    """
-    s, v = np.linalg.eig(a)
-    # an exactly defective A gives (numerically) parallel eigenvectors: the inverse may
-    # be singular or astronomically large; both mean "not diagonalisable" here
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        try:
-            vinv = np.linalg.inv(v)
-        except np.linalg.LinAlgError:
-            return s, v, None, math.inf
-        cond = float(np.linalg.norm(v) * np.linalg.norm(vinv))
-    if not (np.all(np.isfinite(vinv)) and math.isfinite(cond)):
-        return s, v, None, math.inf
-    return s, v, vinv, cond
-
-
 def _modal_parts(s, v, vinv, b, c, to_state, dt, hold):
     """Modal recursion pieces for a diagonalisable real block ``w' = T w + b u``.
 
@@ -490,7 +305,7 @@ def _modal_parts(s, v, vinv, b, c, to_state, dt, hold):
     full (balanced) state to the block's coordinates ``w``. Returns None when the
     eigenvalues do not come in exact conjugate pairs.
     """
-    sel = _pairs(s)
+    sel = pairs(s)
     if sel is None:
         return None
     keep, weight = sel
@@ -500,98 +315,13 @@ def _modal_parts(s, v, vinv, b, c, to_state, dt, hold):
     to_modal = vinv_k @ to_state.astype(complex)  # (m, n)
     cm = (c.astype(complex) @ v[:, keep]) * weight  # (n_out, m)
     a = s[keep] * dt
-    phi1, phi2 = _phi12(a)
+    phi1, phi2 = phi12(a)
     if hold == "foh":
         w0, w1 = dt * (phi1 - phi2), dt * phi2
     else:
         w0, w1 = dt * phi1, np.zeros_like(phi1)
     lam = np.exp(a)
     return dict(lam=lam, bm=vinv_b, w0=w0, w1=w1, cm=cm, to_modal=to_modal)
-
-
-def _defective_selection(a: np.ndarray):
-    """Eigenvalues of ``a`` and a mask of those that are (nearly) defective.
-
-    The condition number of eigenvalue ``i`` is ``1 / |y_i^H x_i|`` for unit left and
-    right eigenvectors ``y_i``, ``x_i`` (infinite for an exactly defective eigenvalue,
-    e.g. the ``[[0, 1], [0, 0]]`` block of a rigid-body mode in modal coordinates).
-    The mask is closed under conjugation. Returns ``(s, None)`` if nothing is flagged.
-    """
-    s, vl, vr = scipy.linalg.eig(a, left=True, right=True)
-    vl = vl / np.linalg.norm(vl, axis=0)
-    vr = vr / np.linalg.norm(vr, axis=0)
-    overlap = np.abs(np.sum(np.conj(vl) * vr, axis=0))
-    bad = overlap < 1.0 / _KAPPA_DEFECTIVE
-    if not np.any(bad):
-        return s, None
-    return s, bad | np.isin(s, np.conj(s[bad]))
-
-
-def _block_split(a, s, bad):
-    """Real Schur reordering + Sylvester split of the ``bad`` eigenvalues to the top.
-
-    Returns ``(P, Pinv, T11, T22)`` with ``Pinv a P = blkdiag(T11, T22)`` (``T11`` is
-    ``k x k``; both blocks quasi-upper-triangular, taken from the Schur form itself), or
-    None if the reordering or the split fails.
-    """
-    bad_values = s[bad]
-    good_values = s[~bad]
-
-    def select(re, im):
-        lam = complex(re, im)
-        d_bad = np.min(np.abs(bad_values - lam))
-        d_good = np.min(np.abs(good_values - lam)) if good_values.size else np.inf
-        return bool(d_bad <= d_good)
-
-    try:
-        t, z, k = scipy.linalg.schur(a, output="real", sort=select)
-    except (np.linalg.LinAlgError, ValueError):
-        return None
-    n = a.shape[0]
-    if k == 0 or k == n:
-        return None
-    t11, t12, t22 = t[:k, :k], t[:k, k:], t[k:, k:]
-    try:
-        x = scipy.linalg.solve_sylvester(t11, -t22, -t12)
-    except (np.linalg.LinAlgError, ValueError):
-        return None
-    if not np.all(np.isfinite(x)):
-        return None
-    w = np.eye(n)
-    w[:k, k:] = x
-    winv = np.eye(n)
-    winv[:k, k:] = -x
-    return z @ w, winv @ z.T, t11.copy(), t22.copy()
-
-
-def _snap_zero_cluster(t11: np.ndarray, a_norm: float) -> np.ndarray:
-    """Replace a numerically nilpotent (rigid-body) block by the nearest exact one.
-
-    A rigid-body mode is a Jordan block at exactly 0 (``N^2 = 0``), but any
-    backward-stable computation (this Schur form, or ``expm`` of ``A`` itself) only
-    reproduces it up to a perturbation ``e ~ eps ||A||``; for a Jordan block with
-    coupling ``t`` that moves the eigenvalues to ``+-sqrt(e t)``, a spurious drift (one
-    of them unstable) that grows over a long record: for a stiff free-free structure the
-    rigid-body motion after 2**16 steps can be off by 1e-6 to 1e-4 relative.
-
-    If ``t11`` is nilpotent of index 2 to within ``e = 10 k eps ||A||`` (``|trace| <= e``,
-    ``||t11^2|| <= e ||t11||``), it is replaced by ``N = U' S V^T`` built from its
-    singular values above ``e`` (``U' = U - V V^T U`` so that ``N^2 = 0`` exactly): a
-    change of the order of ``e``, the size of the rounding that perturbed it. Otherwise
-    (a critically damped mode, a cluster away from 0, a Jordan block longer than 2, a
-    rigid cluster mixed with another) ``t11`` is returned unchanged.
-    """
-    k = t11.shape[0]
-    e = 10.0 * k * np.finfo(float).eps * a_norm
-    norm = np.linalg.norm(t11)
-    if abs(np.trace(t11)) > e or np.linalg.norm(t11 @ t11) > e * max(norm, 1.0):
-        return t11
-    u, sv, vh = np.linalg.svd(t11)
-    m = int(np.count_nonzero(sv > e))
-    left = u[:, :m] * sv[:m]
-    right = vh[:m].T
-    left = left - right @ (right.T @ left)  # range orthogonal to row space: N @ N = 0
-    return left @ right.T
 
 
 def prepare_lti(A, B, C, D, dt: float, hold: Hold = "foh", method: Method = "auto") -> LtiRecursion:
@@ -634,9 +364,9 @@ def prepare_lti(A, B, C, D, dt: float, hold: Hold = "foh", method: Method = "aut
         If ``dt`` is not positive and finite, ``hold`` or ``method`` is unknown, or
         ``method="modal"`` is impossible.
     """
-    a, b, c, d = _check_system(A, B, C, D)
-    dt = _check_dt(dt)
-    hold = _check_hold(hold)
+    a, b, c, d = check_system(A, B, C, D)
+    dt = check_dt(dt)
+    hold = check_hold(hold)
     if method not in ("auto", "modal", "state"):
         raise ValueError(f"method must be one of 'auto', 'modal', 'state'; got {method!r} instead")
     n, n_in = b.shape
@@ -676,13 +406,13 @@ def prepare_lti(A, B, C, D, dt: float, hold: Hold = "foh", method: Method = "aut
             n_inputs=n_in,
             n_outputs=n_out,
             cond=float(cond),
-            d=_readonly(d),
-            poles=_readonly(np.asarray(poles, complex)),
-            **{key: _readonly(val) for key, val in parts.items()},
+            d=readonly(np.ascontiguousarray(d)),
+            poles=readonly(np.ascontiguousarray(poles, complex)),
+            **{key: readonly(np.ascontiguousarray(val)) for key, val in parts.items()},
         )
 
     def state_path(poles):
-        ad, bd0, bd1 = _discretize(ab, bb, dt, hold)
+        ad, bd0, bd1 = van_loan(ab, bb, dt, hold)
         block = dict(ad=ad, bd0=bd0, bd1=bd1, cb=cb, to_block=to_balanced)
         return build("state", 1.0, poles, block=block)
 
@@ -691,7 +421,7 @@ def prepare_lti(A, B, C, D, dt: float, hold: Hold = "foh", method: Method = "aut
     if method == "state":
         return state_path(np.linalg.eigvals(ab))
 
-    s, v, vinv, cond_v = _eig(ab)
+    s, v, vinv, cond_v = eig(ab)
     a_norm = float(np.linalg.norm(ab))
     # a nearly defective eigenvalue at ~0 (rigid-body pair) may pass the global test on a
     # small or soft model; it belongs in the block path, where it is integrated exactly
@@ -699,7 +429,7 @@ def prepare_lti(A, B, C, D, dt: float, hold: Hold = "foh", method: Method = "aut
         method == "auto"
         and vinv is not None
         and bool(
-            np.any((np.linalg.norm(vinv, axis=1) > _KAPPA_DEFECTIVE) & (np.abs(s) <= 1e-6 * a_norm))
+            np.any((np.linalg.norm(vinv, axis=1) > KAPPA_DEFECTIVE) & (np.abs(s) <= 1e-6 * a_norm))
         )
     )
     if cond_v <= COND_MAX and not near_rigid:
@@ -714,21 +444,21 @@ def prepare_lti(A, B, C, D, dt: float, hold: Hold = "foh", method: Method = "aut
             "'state'"
         )
 
-    s_lr, bad = _defective_selection(ab)
-    split = _block_split(ab, s_lr, bad) if bad is not None else None
+    s_lr, bad = defective_selection(ab)
+    split = block_split(ab, s_lr, bad) if bad is not None else None
     if split is not None:
         p, pinv, t11, t22 = split
         k = t11.shape[0]
-        t11 = _snap_zero_cluster(t11, a_norm)
+        t11 = snap_zero_cluster(t11, a_norm)
         cond_p = float(np.linalg.norm(p) * np.linalg.norm(pinv))
-        s2, v2, v2inv, cond_v2 = _eig(t22)
+        s2, v2, v2inv, cond_v2 = eig(t22)
         if cond_p <= COND_MAX and cond_v2 <= COND_MAX:
             bw = pinv @ bb
             cw = cb @ p
             to_w = pinv @ to_balanced
             modal = _modal_parts(s2, v2, v2inv, bw[k:], cw[:, k:], to_w[k:], dt, hold)
             if modal is not None:
-                ad, bd0, bd1 = _discretize(t11, bw[:k], dt, hold)
+                ad, bd0, bd1 = van_loan(t11, bw[:k], dt, hold)
                 block = dict(ad=ad, bd0=bd0, bd1=bd1, cb=cw[:, :k], to_block=to_w[:k])
                 return build("block", cond_p * cond_v2, s, block=block, modal=modal)
     return state_path(s)
@@ -803,9 +533,9 @@ def simulate_lti(
     :meth:`LtiRecursion.simulate` for each input.
     """
     _engine(backend)  # validate before the (costly) preparation
-    a, b, _, _ = _check_system(A, B, C, D)
-    _check_input(u, b.shape[1])
-    _check_x0(x0, a.shape[0])
+    a, b, _, _ = check_system(A, B, C, D)
+    check_input(u, b.shape[1])
+    check_x0(x0, a.shape[0])
     rec = prepare_lti(A, B, C, D, dt, hold=hold, method=method)
     return rec.simulate(u, x0=x0, backend=backend)
 

@@ -90,23 +90,24 @@ from typing import ClassVar, Literal, Protocol, runtime_checkable
 import numpy as np
 import scipy.linalg
 
+from truthbench._validation import readonly
 from truthbench.errors import ConvergenceError, ModelError
 
 from . import _nonlinear_kernel as _kern
-from .linear import (
-    _KAPPA_DEFECTIVE,
+from ._exact import (
     COND_MAX,
-    _block_split,
-    _check_dt,
-    _check_input,
-    _check_system,
-    _check_x0,
-    _defective_selection,
-    _discretize,
-    _eig,
-    _pairs,
-    _phi12,
-    _snap_zero_cluster,
+    KAPPA_DEFECTIVE,
+    block_split,
+    check_dt,
+    check_input,
+    check_system,
+    check_x0,
+    defective_selection,
+    eig,
+    pairs,
+    phi12,
+    snap_zero_cluster,
+    van_loan,
 )
 
 __all__ = [
@@ -404,12 +405,12 @@ def _realize(a: np.ndarray, b: np.ndarray) -> dict:
     _, (scale, _) = scipy.linalg.matrix_balance(a, permute=False, separate=True)
     ab = a * scale[None, :] / scale[:, None]
     bb = b / scale[:, None]
-    s, v, vinv, cond_v = _eig(ab)
+    s, v, vinv, cond_v = eig(ab)
     a_norm = float(np.linalg.norm(ab))
     near_rigid = vinv is not None and bool(
-        np.any((np.linalg.norm(vinv, axis=1) > _KAPPA_DEFECTIVE) & (np.abs(s) <= 1e-6 * a_norm))
+        np.any((np.linalg.norm(vinv, axis=1) > KAPPA_DEFECTIVE) & (np.abs(s) <= 1e-6 * a_norm))
     )
-    sel = _pairs(s)
+    sel = pairs(s)
     if cond_v <= COND_MAX and not near_rigid and sel is not None:
         keep, weight = sel
         vinv_k = vinv[keep]
@@ -421,15 +422,15 @@ def _realize(a: np.ndarray, b: np.ndarray) -> dict:
             "left": vinv_k / scale[None, :],
             "cond": cond_v,
         }
-    s_lr, bad = _defective_selection(ab)
-    split = _block_split(ab, s_lr, bad) if bad is not None else None
+    s_lr, bad = defective_selection(ab)
+    split = block_split(ab, s_lr, bad) if bad is not None else None
     if split is not None:
         p, pinv, t11, t22 = split
         k = t11.shape[0]
-        t11 = _snap_zero_cluster(t11, a_norm)
+        t11 = snap_zero_cluster(t11, a_norm)
         cond_p = float(np.linalg.norm(p) * np.linalg.norm(pinv))
-        s2, v2, v2inv, cond_v2 = _eig(t22)
-        sel2 = _pairs(s2) if v2inv is not None else None
+        s2, v2, v2inv, cond_v2 = eig(t22)
+        sel2 = pairs(s2) if v2inv is not None else None
         if cond_p <= COND_MAX and cond_v2 <= COND_MAX and sel2 is not None:
             keep, weight = sel2
             bw = pinv @ bb
@@ -487,7 +488,7 @@ def _tables(part: dict, dt: float, n_grid: int) -> dict:
     hk = dt * np.arange(n_grid + 1) / n_grid
     nt = int(np.count_nonzero(np.abs(s) * dt / (2 * n_grid) <= _X_TABLE))
     a = np.outer(hk, s)
-    p1, p2 = _phi12(a)
+    p1, p2 = phi12(a)
     e, f1, f2 = np.exp(a), hk[:, None] * p1, (hk**2)[:, None] * p2
     tab = np.stack([e.real, e.imag, f1.real, f1.imag, f2.real, f2.imag], axis=1)
     nk = t_blk.shape[0]
@@ -589,14 +590,14 @@ def _regime(mask, fric, a, bw, c_rows, d_rows, cv, bnl, n_in, n_out, n_nl, dt):
     bm = real["bm"][order]
     right = right[:, order]
     left = left[order]
-    phi1, phi2 = _phi12(s * dt)
+    phi1, phi2 = phi12(s * dt)
     w0, w1 = dt * (phi1 - phi2), dt * phi2
     g0 = (w0[:, None] * bm).T
     g1 = (w1[:, None] * bm).T
     cm = c_rows.astype(complex) @ right
     ck = c_rows @ rb
     t_blk, b_blk = real["T"], real["Bk"]
-    ad, bd0, bd1 = _discretize(t_blk, b_blk, dt, "foh")
+    ad, bd0, bd1 = van_loan(t_blk, b_blk, dt, "foh")
     # a row's time derivatives: (c z)' = (c s) z + c Bm w, (c z)'' = (c s^2) z + ...
     cs = cm * s[None, :]
     d1 = (cm @ bm).real + ck @ b_blk
@@ -652,12 +653,6 @@ def _stack_rows(lists: list[np.ndarray], fill: int) -> np.ndarray:
     for r, a in enumerate(lists):
         out[r, : a.size] = a
     return out
-
-
-def _readonly(x: np.ndarray) -> np.ndarray:
-    x = np.ascontiguousarray(x)
-    x.setflags(write=False)
-    return x
 
 
 # ----------------------------------------------------------------------------------
@@ -792,8 +787,8 @@ class NonlinearSystem:
             More than ``max_events_per_step`` events in one step.
         """
         run = _engine(backend)
-        uu = _check_input(u, self.n_inputs)
-        x = _check_x0(x0, self.n_states)
+        uu = check_input(u, self.n_inputs)
+        x = check_x0(x0, self.n_states)
         if isinstance(max_events_per_step, bool) or not isinstance(max_events_per_step, int) \
                 or max_events_per_step < 1:
             raise ValueError("max_events_per_step must be a positive integer; got "
@@ -813,9 +808,9 @@ class NonlinearSystem:
                 "smaller dt"
             )
         return NonlinearResult(
-            y=_readonly(y), f_nl=_readonly(f), displacement=_readonly(disp),
-            velocity=_readonly(vel), stuck=_readonly(stuck),
-            n_stick_events=_readonly(n_stick), n_reversals=_readonly(n_rev), dt=self.dt,
+            y=readonly(y), f_nl=readonly(f), displacement=readonly(disp),
+            velocity=readonly(vel), stuck=readonly(stuck),
+            n_stick_events=readonly(n_stick), n_reversals=readonly(n_rev), dt=self.dt,
         )
 
 
@@ -896,8 +891,8 @@ def prepare_nonlinear(A, B, C, D, dt: float, elements) -> NonlinearSystem:
     TypeError
         ``elements`` not a sequence of :class:`NonlinearElement`.
     """
-    a, b, c, d = _check_system(A, B, C, D)
-    dt = _check_dt(dt)
+    a, b, c, d = check_system(A, B, C, D)
+    dt = check_dt(dt)
     n, n_in = b.shape
     n_out = c.shape[0]
     els = _check_elements(elements, n, n_out)
@@ -1009,8 +1004,8 @@ def simulate_nonlinear(A, B, C, D, u, dt: float, elements, *, x0=None,
     result equals :func:`~truthbench.simulate.linear.simulate_lti` to rounding.
     """
     _engine(backend)
-    a, b, _, _ = _check_system(A, B, C, D)
-    _check_input(u, b.shape[1])
-    _check_x0(x0, a.shape[0])
+    a, b, _, _ = check_system(A, B, C, D)
+    check_input(u, b.shape[1])
+    check_x0(x0, a.shape[0])
     system = prepare_nonlinear(A, B, C, D, dt, elements)
     return system.simulate(u, x0=x0, backend=backend)

@@ -42,13 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from truthbench._validation import readonly
+
 CI_METHODS = ("wilson", "clopper-pearson", "trial-clustered")
-
-
-def _readonly(a, dtype=float) -> np.ndarray:
-    out = np.array(a, dtype=dtype, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 def wilson_interval(n_inside, n_total, confidence: float = 0.95) -> tuple[float, float]:
@@ -363,12 +359,12 @@ def calibration_curve(theta_tests, theta_true=None, k=None, *, confidence: float
         z = np.where(sd > 0, dev / sd, np.where(dev == 0, 0.0, np.inf))
     rows = [coverage_fraction(z <= kk, confidence=confidence, method=method) for kk in ks]
     return CalibrationCurve(
-        k=_readonly(ks),
-        coverage=_readonly([r.fraction for r in rows]),
-        ci_low=_readonly([r.ci_low for r in rows]),
-        ci_high=_readonly([r.ci_high for r in rows]),
-        expected_normal=_readonly(expected_coverage(ks)),
-        expected_t=_readonly(expected_coverage(ks, T, in_sample=in_sample)),
+        k=readonly(ks, float),
+        coverage=readonly([r.fraction for r in rows], float),
+        ci_low=readonly([r.ci_low for r in rows], float),
+        ci_high=readonly([r.ci_high for r in rows], float),
+        expected_normal=readonly(expected_coverage(ks), float),
+        expected_t=readonly(expected_coverage(ks, T, in_sample=in_sample), float),
         n_tests=int(T),
         n_total=rows[0].n_total,
         in_sample=in_sample,

@@ -32,11 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-
-def _readonly(a, dtype=None) -> np.ndarray:
-    out = np.array(a, dtype=dtype, copy=True)
-    out.setflags(write=False)
-    return out
+from truthbench._validation import readonly
 
 
 def expected_frf_coverage(k=3.0, n_tests: int | None = None):
@@ -260,6 +256,6 @@ def frf_uncertainty(H_tests, *, freq_hz=None, k_sigma: float = 3.0) -> FrfUncert
     X = np.stack([d.real, d.imag], axis=-1)  # (T, nf, no, ni, 2)
     cov = np.einsum("t...i,t...j->...ij", X, X) / (T - 1)
     return FrfUncertainty(
-        mean=_readonly(mean, complex), cov=_readonly(cov, float), n_tests=int(T),
-        k_sigma=k, freq_hz=None if f is None else _readonly(f, float),
+        mean=readonly(mean, complex), cov=readonly(cov, float), n_tests=int(T),
+        k_sigma=k, freq_hz=None if f is None else readonly(f, float),
     )

@@ -56,16 +56,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from truthbench._validation import readonly
 from truthbench.errors import IdentifiabilityError
 
 ESTIMATORS = ("chapter", "unbiased")
 COVARIANCES = ("full", "diagonal")
-
-
-def _readonly(a) -> np.ndarray:
-    out = np.array(a, dtype=float, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 def _as_2d(name: str, a) -> np.ndarray:
@@ -378,11 +373,11 @@ def uncertainty_model(
                 cov = np.where(D > 0, S / np.where(D > 0, D, 1.0), 0.0)
     return UncertaintyModel(
         names=names,
-        theta_0=_readonly(t0),
-        delta=_readonly(delta),
-        weights=_readonly(w),
-        mean=_readonly(mean),
-        cov=_readonly(cov),
+        theta_0=readonly(t0, float),
+        delta=readonly(delta, float),
+        weights=readonly(w, float),
+        mean=readonly(mean, float),
+        cov=readonly(cov, float),
         k_sigma=k,
         estimator=estimator,
         covariance=covariance,

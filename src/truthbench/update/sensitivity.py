@@ -78,6 +78,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from truthbench._validation import readonly
 from truthbench.errors import IdentifiabilityError
 from truthbench.identify.correlation import modal_scale_factor, pair_modes
 from truthbench.identify.modal import ModalParameters
@@ -97,12 +98,6 @@ _EPS = np.finfo(float).eps
 # --------------------------------------------------------------------------------------
 # data
 # --------------------------------------------------------------------------------------
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, copy=True)
-    a.setflags(write=False)
-    return a
-
-
 @dataclass(frozen=True)
 class MeasuredModes:
     """Identified modes of one test on a subset of the model's DOFs.
@@ -164,15 +159,15 @@ class MeasuredModes:
         if np.any(dofs < 0) or np.unique(dofs).size != dofs.size:
             raise ValueError(f"MeasuredModes: 'dof_index' must be non-negative without "
                              f"repeats; got {dofs.tolist()}")
-        object.__setattr__(self, "freq_hz", _readonly(f))
-        object.__setattr__(self, "shapes", _readonly(phi))
-        object.__setattr__(self, "dof_index", _readonly(dofs.astype(np.intp)))
+        object.__setattr__(self, "freq_hz", readonly(f))
+        object.__setattr__(self, "shapes", readonly(phi))
+        object.__setattr__(self, "dof_index", readonly(dofs.astype(np.intp)))
         if self.weights is not None:
             w = np.array(self.weights, dtype=float)
             if w.shape != f.shape or not np.all(np.isfinite(w)) or np.any(w < 0):
                 raise ValueError(f"MeasuredModes: 'weights' must be finite, non-negative, "
                                  f"of shape {f.shape}; got {self.weights!r}")
-            object.__setattr__(self, "weights", _readonly(w))
+            object.__setattr__(self, "weights", readonly(w))
         if self.damping_ratio is not None:
             z = np.array(self.damping_ratio, dtype=float)
             if z.ndim == 0 and f.size == 1:
@@ -183,7 +178,7 @@ class MeasuredModes:
                 raise ValueError(f"MeasuredModes: 'damping_ratio' must have shape {f.shape} "
                                  f"(one per mode) with values in [0, 1) or NaN (not "
                                  f"measured); got {self.damping_ratio!r}")
-            object.__setattr__(self, "damping_ratio", _readonly(z))
+            object.__setattr__(self, "damping_ratio", readonly(z))
 
     @property
     def has_damping(self) -> bool:
