@@ -297,8 +297,15 @@ def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0
     Xi = modal_damping_matrix(model, modes)
     Bm = modes.shapes.T @ model.B  # (m, n_in)
     Cm = model.C_out @ modes.shapes  # (n_out, m)
-    off = np.abs(Xi - np.diag(np.diag(Xi))) > 1e-12 * max(np.abs(Xi).max(), 1e-300)
+    scale = max(np.abs(Xi).max(), 1e-300)
+    off = np.abs(Xi - np.diag(np.diag(Xi))) > 1e-12 * scale
     coupled = off.any(axis=0) | off.any(axis=1)
+    # An undamped rigid-body mode (omega = 0, no damping of its own) stays classical: its
+    # off-diagonal terms are then only the eigensolver's contamination of the zero
+    # eigenspace (about eps * lambda_max / gap, 1e-8 of the shapes), and in the
+    # first-order form it would make a double zero eigenvalue (a Jordan block). A
+    # rigid-body mode a dashpot really acts on is damped itself and stays coupled.
+    coupled &= ~((modes.omega_rad_s == 0) & (np.abs(np.diag(Xi)) <= 1e-9 * scale))
     # modes without damping coupling: classical sum 1 / (w_i^2 - w^2 + j w xi_ii)
     free = ~coupled
     den = modes.omega_rad_s[None, free] ** 2 + s[:, None] ** 2 + s[:, None] * np.diag(Xi)[free]
