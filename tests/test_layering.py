@@ -21,7 +21,7 @@ LAYERS = (
     ("plants", "io"),
     ("identify", "effects"),
     ("update", "uncertainty", "placement"),
-    ("studies",),
+    ("diagnose", "studies"),
     ("campaign",),
     ("report",),
     ("__init__",),

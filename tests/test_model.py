@@ -196,3 +196,22 @@ def test_dashpot_on_a_free_free_beam_with_rigid_modes_equals_the_direct_solve():
     for o, i in ((0, 0), (1, 1)):  # the direct couplings (z-z, y-y)
         err = np.abs(H[:, o, i] - ref[:, o, i]).max() / np.abs(ref[:, o, i]).max()
         assert err < tol, (o, i, err, tol)
+
+
+def test_mode_tolerance_leaves_out_only_what_the_channels_barely_see():
+    """Vertical channels on a free-free tube: leaving out the modes whose peak at these
+    channels is below 1e-12 of the largest (lateral, axial and torsion modes) changes the
+    FRF by at most the number of modes times that fraction of the largest peak; a
+    coarse tolerance does change it (the option acts)."""
+    from truthbench.plants import Actuator, Sensor, make_plant
+
+    plant = make_plant("free_free_beam", n_elements=20)
+    model = plant.build({"modal_damping_ratio": 0.01},
+                        [Actuator("end_a", "z")], [Sensor(s, "z") for s in
+                                                  ("end_a", "quarter", "mid", "end_b")])
+    modes = model.modes()
+    f = np.linspace(2.0, 400.0, 500)
+    full = model.frf(f, modes=modes)
+    bound = modes.n_modes * 1e-12 * np.abs(full).max()
+    assert np.abs(model.frf(f, modes=modes, mode_tolerance=1e-12) - full).max() <= bound
+    assert np.abs(model.frf(f, modes=modes, mode_tolerance=0.5) - full).max() > 1e3 * bound

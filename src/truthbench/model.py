@@ -124,10 +124,10 @@ class StructuralModel:
         return solve_modes(self.M, self.K, n_modes)
 
     def frf(self, freq_hz, n_modes: int | None = None, modes: Modes | None = None, *,
-            decay_rad_s: float = 0.0) -> np.ndarray:
+            decay_rad_s: float = 0.0, mode_tolerance: float = 0.0) -> np.ndarray:
         """FRF by modal superposition, shape (n_freq, n_out, n_in); see :func:`frf`."""
         return frf(self, freq_hz, modes if modes is not None else self.modes(n_modes),
-                   decay_rad_s=decay_rad_s)
+                   decay_rad_s=decay_rad_s, mode_tolerance=mode_tolerance)
 
     def state_space(self, n_modes: int | None = None, modes: Modes | None = None):
         """``control.StateSpace`` of the modal first-order form (states: eta, eta')."""
@@ -271,8 +271,8 @@ def modal_system(model: StructuralModel, modes: Modes):
     return A, B, C, D
 
 
-def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0.0
-        ) -> np.ndarray:
+def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0.0,
+        mode_tolerance: float = 0.0) -> np.ndarray:
     """Frequency response by modal superposition.
 
     Parameters
@@ -286,6 +286,12 @@ def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0
         Evaluate the transfer function at ``s = decay_rad_s + j omega`` instead of on the
         imaginary axis: the FRF of the impulse response times ``exp(-decay_rad_s t)``,
         what an exponential window makes of a measured FRF (1/s).
+    mode_tolerance : float, optional
+        Leave out the uncoupled elastic modes whose resonance peak at these outputs and
+        inputs, ``max |c_r omega_r^p b_r| / (omega_r xi_r)`` (p the output's power of
+        j omega), is below this fraction of the largest (modes the channels barely see: other planes, axial and torsion for
+        bending channels). The response left out is at most the number of such modes
+        times this fraction of the largest peak. 0 (the default) keeps every mode.
 
     Returns
     -------
@@ -308,6 +314,16 @@ def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0
     coupled &= ~((modes.omega_rad_s == 0) & (np.abs(np.diag(Xi)) <= 1e-9 * scale))
     # modes without damping coupling: classical sum 1 / (w_i^2 - w^2 + j w xi_ii)
     free = ~coupled
+    if mode_tolerance > 0:
+        w_r = modes.omega_rad_s
+        out_pow = _output_powers(model.quantities)
+        num = (np.abs(Cm) * w_r[None, :] ** out_pow[:, None]).max(axis=0) \
+            * np.abs(Bm).max(axis=1)
+        xi = np.diag(Xi)
+        damped = (modes.omega_rad_s > 0) & (xi > 0)
+        peak = np.where(damped, num / np.where(damped, modes.omega_rad_s * xi, 1.0), np.inf)
+        top = np.max(peak[damped & free], initial=0.0)
+        free &= ~(damped & (peak < mode_tolerance * top))
     den = modes.omega_rad_s[None, free] ** 2 + s[:, None] ** 2 + s[:, None] * np.diag(Xi)[free]
     H = np.einsum("om,fm,mi->foi", Cm[:, free], 1.0 / den, Bm[free], optimize=True)
     if coupled.any():

@@ -228,22 +228,26 @@ class Hardware:
         channel-indexed filters refer to the new channels)."""
         return replace(self, actuators=tuple(actuators), sensors=tuple(sensors))
 
-    def structural_frf(self, freq_hz, *, decay_rad_s: float = 0.0) -> np.ndarray:
+    def structural_frf(self, freq_hz, *, decay_rad_s: float = 0.0,
+                       mode_tolerance: float = 0.0) -> np.ndarray:
         """FRF of the structure with its loops closed, from every force input
         (actuators, then disturbers) to every sensor, before appended dynamics and the
-        measurement chain (at ``s = decay_rad_s + j omega``, see :meth:`frf`).
+        measurement chain (at ``s = decay_rad_s + j omega``; ``mode_tolerance`` see
+        :func:`truthbench.model.frf`).
 
         Returns
         -------
         ndarray, complex, shape (n_freq, n_out, n_act + n_dist)
         """
         f = np.asarray(freq_hz, dtype=float)
-        H = self.model.frf(f, modes=self.modes, decay_rad_s=decay_rad_s)
+        H = self.model.frf(f, modes=self.modes, decay_rad_s=decay_rad_s,
+                           mode_tolerance=mode_tolerance)
         for loop in self.loops:
             H = loop.close(H, f, decay_rad_s=decay_rad_s)
         return H
 
-    def frf(self, freq_hz, *, decay_rad_s: float = 0.0) -> np.ndarray:
+    def frf(self, freq_hz, *, decay_rad_s: float = 0.0, mode_tolerance: float = 0.0
+            ) -> np.ndarray:
         """The exact FRF from the recorded inputs to the recorded outputs.
 
         Parameters
@@ -254,6 +258,8 @@ class Hardware:
             Evaluate at ``s = decay_rad_s + j omega``: the FRF of the impulse response
             times ``exp(-decay_rad_s t)``, which is what exponentially windowed impact
             data measure (1/s).
+        mode_tolerance : float, optional
+            Leave out modes the channels barely see (:func:`truthbench.model.frf`).
 
         Returns
         -------
@@ -261,7 +267,8 @@ class Hardware:
             Output unit per N (N m for a moment input).
         """
         f = np.asarray(freq_hz, dtype=float)
-        H = self.structural_frf(f, decay_rad_s=decay_rad_s)[:, :, : len(self.actuators)]
+        H = self.structural_frf(f, decay_rad_s=decay_rad_s, mode_tolerance=mode_tolerance
+                                )[:, :, : len(self.actuators)]
         s = 2j * np.pi * f + decay_rad_s if decay_rad_s else 2j * np.pi * f
         if self.input_filters:
             H = H * _filter_gains(self.input_filters, s, H.shape[2]).T[:, None, :]

@@ -175,7 +175,7 @@ class Joint(Effect):
             raise ModelError("effect 'joint': stiffness_loss must be < 1")
         setup.element_scale.append((e, 1.0 - values["stiffness_loss"]))
         d = direction_index(options["direction"])
-        if values["damping_n_m_s_rad"] > 0:
+        if values["damping_n_m_s_rad"] != 0:  # smooth through 0 for fitting
             setup.links.append(("dashpot", 6 * e + d, 6 * (e + 1) + d,
                                 values["damping_n_m_s_rad"]))
 

@@ -1,0 +1,191 @@
+"""The candidate missing effects: every registered effect that declares how diagnosis fits
+it (:class:`~truthbench.effects.base.Diagnosable`), at every location it can have.
+
+A :class:`Candidate` is one effect with its options fixed (a station, a direction, an
+output channel) and its fitted parameters free, as an
+:class:`~truthbench.update.EffectTerm` of the FRF predictor. Locations:
+
+``station``
+    every node of the model that can move in the candidate's direction (a station
+    ``n<k>`` per node);
+``sensor``
+    every output channel of every test (index into the test's sensors; the channels of
+    the tests are the same physical sensors when their labels agree);
+directions
+    ``translation``: every translational direction the data measure; ``bending``: the
+    bending rotation of every measured transverse direction (z -> ry, y -> rz).
+
+The natural size of each fitted parameter (its FD step and trust region) is a fraction
+of a model reference (:func:`references`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from truthbench.effects import EFFECTS, EffectSpec, parse_effect
+from truthbench.effects.base import FitParam
+from truthbench.errors import ModelError
+from truthbench.plants.base import Plant
+from truthbench.update.predictor import EffectTerm
+
+_BENDING = {"z": "ry", "y": "rz"}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One effect at one location with its fitted parameters free.
+
+    Attributes
+    ----------
+    effect : str
+        Registry name.
+    options : dict
+        The effect's options (station, direction, sensor).
+    label : str
+        Unique name, e.g. ``"added_mass@n12"``, ``"grounded_dashpot@n3.z"``,
+        ``"channel_gain@mid.z.acc"``, ``"time_delay"``.
+    fitted : tuple of FitParam
+    node : int or None
+        The model node of a located candidate.
+    """
+
+    effect: str
+    options: dict
+    label: str
+    fitted: tuple[FitParam, ...]
+    node: int | None = None
+
+    @property
+    def spec(self) -> EffectSpec:
+        return parse_effect({"name": self.effect, **self.options}, self.label, "diagnosis")
+
+    def term(self, start: Mapping[str, float] | None = None) -> EffectTerm:
+        """The candidate as an effect term of the predictor (fitted names are the
+        :class:`FitParam` names, keyed ``label.name``)."""
+        form = EFFECTS[self.effect].diagnosis
+        init = {p.name: p.start for p in self.fitted}
+        init.update(start or {})
+        return EffectTerm(self.label, self.spec, tuple(p.name for p in self.fitted),
+                          form.to_values, init)
+
+    def keys(self) -> tuple[str, ...]:
+        return tuple(f"{self.label}.{p.name}" for p in self.fitted)
+
+    def scales(self, refs: Mapping[str, float]) -> dict[str, float]:
+        """Natural size of each fitted parameter (key -> size in its unit)."""
+        return {f"{self.label}.{p.name}": p.factor * refs[p.reference] for p in self.fitted}
+
+    def effect_values(self, fitted: Mapping[str, float]) -> dict[str, float]:
+        """The effect's own parameter values for fitted values (by own name)."""
+        return self.term().values({f"{self.label}.{k}": v for k, v in fitted.items()})
+
+
+def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,
+               f_ref_hz: float | None = None) -> dict[str, float]:
+    """The model quantities the fitted parameters' natural sizes are fractions of.
+
+    ``mass``: the structure's translational mass (kg); ``stiffness``: mass times the
+    squared reference angular frequency (N/m); ``damping``: ``2 omega_ref mass``
+    (N s/m; 1 % of it damps the first mode by about 1 %); ``rotary_damping``: damping
+    times the squared element length (N m s/rad); ``time``: ``1 / (2 pi f_max)`` (s);
+    ``unit``: 1. ``f_ref_hz`` defaults to the lowest elastic mode.
+    """
+    model = plant.build(nominal)
+    labels = model.dof_labels
+    x = np.array([lab.endswith(".x") for lab in labels], dtype=float)
+    y = np.array([lab.endswith(".y") for lab in labels], dtype=float)
+    z = np.array([lab.endswith(".z") for lab in labels], dtype=float)
+    mass = max(float(v @ (model.M @ v)) for v in (x, y, z))
+    if f_ref_hz is None:
+        modes = model.modes(min(12, model.n_dofs))
+        elastic = modes.freq_hz[~modes.rigid]
+        f_ref_hz = float(elastic[elastic > 0][0]) if np.any(elastic > 0) else f_max_hz
+    w = 2 * np.pi * f_ref_hz
+    h = float(np.mean(np.diff(plant.node_x_m(nominal))))
+    return {"mass": mass, "stiffness": mass * w * w, "damping": 2 * w * mass,
+            "rotary_damping": 2 * w * mass * h * h, "time": 1.0 / (2 * np.pi * f_max_hz),
+            "unit": 1.0}
+
+
+def _free_directions(plant: Plant, nominal, node: int) -> set[str]:
+    labels = plant.build(nominal).dof_labels
+    return {lab.split(".")[1] for lab in labels if lab.startswith(f"n{node}.")}
+
+
+def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
+              names: Sequence[str] | None = None) -> list[Candidate]:
+    """Every candidate the data can test.
+
+    Parameters
+    ----------
+    plant : Plant
+        The model with a station ``n<k>`` at every node (:func:`with_node_stations`).
+    nominal : mapping
+    tests : sequence of MeasuredTest
+    names : sequence of str, optional
+        Effects to try (registry names); default every diagnosable effect.
+
+    Returns
+    -------
+    list of Candidate
+
+    Raises
+    ------
+    ModelError
+        An unknown or not diagnosable effect name.
+    """
+    diagnosable = {n: c for n, c in EFFECTS.items() if c.diagnosis is not None}
+    if names is None:
+        names = sorted(diagnosable)
+    bad = [n for n in names if n not in diagnosable]
+    if bad:
+        raise ModelError(f"effects {bad} cannot be tried as missing; the candidates are "
+                         f"{', '.join(sorted(diagnosable))}")
+    measured = sorted({s.direction for t in tests for s in t.sensors} |
+                      {a.direction for t in tests for a in t.actuators})
+    translations = [d for d in measured if d in ("x", "y", "z")]
+    nodes = range(plant.n_elements + 1)
+    free = {k: _free_directions(plant, nominal, k) for k in nodes}
+    sensors = list(dict.fromkeys(s.label for t in tests for s in t.sensors))
+    out = []
+    for name in names:
+        cls = diagnosable[name]
+        form = cls.diagnosis
+        if name == "boundary" and "suspension_stiffness_n_m" not in plant.parameters:
+            continue  # no suspension to be wrong
+        if form.directions == "translation":
+            dirs = translations
+        elif form.directions == "bending":
+            dirs = [_BENDING[d] for d in translations if d in _BENDING]
+        else:
+            dirs = [None]
+        if form.location == "station":
+            for k in nodes:
+                for d in dirs:
+                    if d is not None and d not in free[k] and form.directions != "bending":
+                        continue
+                    if d is None and not free[k] & {"x", "y", "z"}:
+                        continue
+                    opts = {"station": f"n{k}"}
+                    label = f"{name}@n{k}"
+                    if d is not None:
+                        opts["direction"] = d
+                        label += f".{d}"
+                    out.append(Candidate(name, opts, label, form.fitted, k))
+        elif form.location == "sensor":
+            for lab in sensors:
+                out.append(Candidate(name, {"sensor": lab}, f"{name}@{lab}", form.fitted))
+        else:
+            out.append(Candidate(name, {}, name, form.fitted))
+    return out
+
+
+def with_node_stations(plant: Plant) -> Plant:
+    """The plant with a station ``n<k>`` at every node (candidates are placed on them)."""
+    stations = dict(plant.stations)
+    stations.update({f"n{k}": k / plant.n_elements for k in range(plant.n_elements + 1)})
+    return replace(plant, stations=stations)

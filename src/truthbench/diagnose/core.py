@@ -1,0 +1,373 @@
+"""Diagnosis: from measured FRFs and a model to the effects the model lacks.
+
+1. **Baseline.** The channels are placed on the model (:func:`~.data.prepare`) and the
+   parameters the user declared (``[update] parameters``) are fitted: the best the model
+   can do as declared.
+2. **Residual.** Every view of data against the baseline (:mod:`.residual`).
+3. **Candidates.** Every effect of the registry that declares a diagnosis form, at every
+   location it can have (:mod:`.candidates`), is screened by the Lagrange-multiplier
+   test of adding it to the current fit (:func:`~.fit.score`); the ``refits`` best are
+   refitted (quick: forward differences, capped iterations) with the declared
+   parameters and the effects already found, and so are the locations within two nodes
+   of the best located one (a first-order score can rank a mirror image or a neighbour
+   first when the change is large). When not even the best first-order drop could be
+   significant, nothing is refitted.
+4. **Selection.** Each refit is scored by the Bayesian information criterion with the
+   noise scale profiled out (the weights ``1 / sigma`` fix the relative noise of every
+   value, the common scale is estimated),
+
+       delta_BIC = n ln(chi2_current / chi2_candidate) - k ln(n),
+
+   n the real data values and k the candidate's parameters. The best candidate with a
+   physical fit (inside its bounds to two standard deviations) and ``delta_BIC >
+   threshold`` is added; the search repeats until none is (forward selection), or
+   ``max_effects`` are found. Data at the noise level find nothing.
+5. **After.** The residual views of the final model; the found effects with their
+   fitted values, standard deviations (from the Jacobian, scaled by the residual) and
+   location.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from truthbench.diagnose.candidates import Candidate, catalogue, references, with_node_stations
+from truthbench.diagnose.data import MeasuredTest, prepare
+from truthbench.diagnose.fit import Fit, Problem, candidate_columns, fit, refit_error, score
+from truthbench.diagnose.residual import ModeResidual, Residual, mpc, residual_views
+from truthbench.errors import IdentifiabilityError, ModelError
+from truthbench.measure.frfdata import FRFData
+from truthbench.plants.base import Plant
+from truthbench.update.predictor import APPENDED_PARAMETERS, PredictedTest
+
+
+@dataclass(frozen=True)
+class DiagnoseSettings:
+    """Settings of :func:`diagnose` (see its parameters)."""
+
+    candidates: tuple[str, ...] | None = None
+    band_hz: tuple[float, float] | None = None
+    tolerance_m: float = 1e-3
+    point_map: Mapping[int, float] = field(default_factory=dict)
+    max_effects: int = 2
+    threshold: float = 10.0
+    refits: int = 6
+    estimator: bool = True
+    identify_modes: bool = True
+    max_iterations: int = 30
+    tolerance: float = 1e-6
+
+
+@dataclass(frozen=True)
+class Found:
+    """An effect the diagnosis added.
+
+    Attributes
+    ----------
+    effect : str
+        Registry name.
+    options : dict
+        Its location (station, direction, sensor).
+    parameters : dict
+        The effect's own parameter values at the fit.
+    fitted : dict
+        The fitted parameters (own names) and their standard deviations ``std``.
+    std : dict
+    delta_bic : float
+    node : int or None
+    label : str
+    """
+
+    effect: str
+    options: dict
+    parameters: dict
+    fitted: dict
+    std: dict
+    delta_bic: float
+    node: int | None
+    label: str
+
+
+@dataclass(frozen=True)
+class Tried:
+    """A candidate tried at one step: screened, refitted, scored."""
+
+    step: int
+    label: str
+    effect: str
+    options: dict
+    screen_drop: float
+    delta_bic: float = float("nan")
+    fitted: dict = field(default_factory=dict)
+    parameters: dict = field(default_factory=dict)
+    status: str = "screened"
+
+
+def _bounds_ok(cand: Candidate, values: Mapping[str, float], std: Mapping[str, float]
+               ) -> str | None:
+    for p in cand.fitted:
+        key = f"{cand.label}.{p.name}"
+        v, s = values[key], std.get(key, 0.0)
+        if p.minimum is not None and v < p.minimum - 2 * s:
+            return f"unphysical: {p.name} = {v:.4g} below {p.minimum:g} by more than 2 std"
+        if p.maximum is not None and v > p.maximum + 2 * s:
+            return f"unphysical: {p.name} = {v:.4g} above {p.maximum:g} by more than 2 std"
+    return None
+
+
+def _with_offsets(problem: Problem, current: Fit) -> Problem:
+    """The problem with the estimator's leakage offset at ``current``'s parameters."""
+    if not any(t.kernel is not None for t in problem.tests):
+        return problem
+    pred = problem.predictor(current.terms)
+    exact = pred.predict_vector(current.theta)
+    seen = pred.predict_vector(current.theta, estimator=True)
+    return replace(problem, offsets=seen - exact)
+
+
+def _parts(tests: Sequence[MeasuredTest], vector: np.ndarray) -> list[np.ndarray]:
+    out, k = [], 0
+    for t in tests:
+        n = t.H.size
+        out.append(vector[k:k + n].reshape(t.H.shape))
+        k += n
+    return out
+
+
+def _modes(tests, problem: Problem, fit_: Fit, data_modes) -> tuple[ModeResidual, ...]:
+    """Identified data modes paired with the model's at the measured outputs."""
+    from truthbench.identify import ModalParameters, pair_modes
+    from truthbench.model import modal_table
+
+    out = []
+    for t, ident in zip(tests, data_modes, strict=True):
+        if ident is None or ident.n_modes == 0:
+            continue
+        hw = problem.predictor(fit_.terms).hardware(fit_.theta, t.actuators, t.sensors)
+        model, modes = hw.model, hw.modes
+        rows = modal_table(model, modes)
+        f = np.array([r["freq_hz"] for r in rows])
+        z = np.nan_to_num(np.array([r["damping_ratio"] for r in rows]))
+        keep = ~modes.rigid & (f >= t.freq_hz.min()) & (f <= t.freq_hz.max())
+        shapes = (model.C_out @ modes.shapes)[:, keep]
+        mm = ModalParameters(f[keep], z[keep], shapes)
+        dm = ModalParameters(ident.modal.freq_hz, ident.modal.damping_ratio,
+                             ident.modal.shapes)
+        if mm.n_modes == 0:
+            continue
+        pairing = pair_modes(mm, dm, mac_min=0.5)
+        for (a, b), mac in zip(np.asarray(pairing.pairs, int).reshape(-1, 2),
+                               np.ravel(pairing.mac), strict=True):
+            fd, zd = float(dm.freq_hz[b]), float(dm.damping_ratio[b])
+            out.append(ModeResidual(
+                t.name, fd, 100 * (float(mm.freq_hz[a]) / fd - 1), zd,
+                100 * (float(mm.damping_ratio[a]) / zd - 1) if zd > 0 else float("nan"),
+                float(mac), mpc(np.asarray(dm.shapes)[:, b])))
+    return tuple(out)
+
+
+def _identify(tests, max_order: int = 40):
+    """The data's own modes per test (pLSCF over its compared lines), or None."""
+    from truthbench.identify import identify_frfs
+
+    out = []
+    for t in tests:
+        try:
+            data = t.frf.lines(t.lines)
+            out.append(identify_frfs(data, max_order=max_order,
+                                     band_hz=(float(t.freq_hz.min()), float(t.freq_hz.max()))))
+        except (ValueError, np.linalg.LinAlgError):
+            out.append(None)
+    return out
+
+
+def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[str, float],
+             parameters: Sequence[str], settings: DiagnoseSettings | None = None, **kwargs):
+    """Find the effects a model lacks from measured FRFs.
+
+    Parameters
+    ----------
+    data : FRFData or sequence of FRFData
+        The measured tests (from :func:`truthbench.load_frf`: UFF, LVM, our HDF5).
+    plant : Plant
+        The model's plant (the user's article).
+    nominal : mapping
+        Its nominal parameters.
+    parameters : sequence of str
+        What the user trusts the model to get wrong: fitted first, as the baseline, and
+        refitted with every candidate (plant parameters, ``delay_s``, ``sensor_gain``).
+    settings : DiagnoseSettings, optional
+        Or its fields as keyword arguments: ``candidates`` (registry names to try; default
+        all), ``band_hz``, ``tolerance_m`` and ``point_map`` (placing the channels),
+        ``max_effects``, ``threshold`` (delta BIC), ``refits``, ``estimator``
+        (compare through the data's leakage when known), ``identify_modes``.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    DataFormatError
+        A channel that cannot be placed, no input, no line in the band.
+    IdentifiabilityError
+        Fewer data than parameters, or the declared parameters cannot be separated.
+    """
+    if settings is None:
+        settings = DiagnoseSettings(**kwargs)
+    elif kwargs:
+        settings = replace(settings, **kwargs)
+    data = (data,) if isinstance(data, FRFData) else tuple(data)
+    # small dense matrices: BLAS threads only add overhead (as in the campaign's trials)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _diagnose(data, plant, nominal, parameters, settings)
+
+
+def _diagnose(data, plant, nominal, parameters, settings):
+    from truthbench.diagnose.result import Diagnosis
+
+    nominal = plant.resolve(nominal)
+    declared = tuple(parameters)
+    known = set(plant.parameter_names()) | set(APPENDED_PARAMETERS)
+    bad = [p for p in declared if p not in known]
+    if bad:
+        raise ModelError(f"parameters {bad} are neither plant parameters of {plant.kind} nor "
+                         f"{sorted(APPENDED_PARAMETERS)}")
+    placed, tests = prepare(data, plant, nominal, band_hz=settings.band_hz,
+                            tolerance_m=settings.tolerance_m, point_map=settings.point_map)
+    model_plant = with_node_stations(placed)
+    ptests = tuple(PredictedTest(
+        t.name, t.freq_hz, t.actuators, t.sensors, decay_rad_s=t.frf.window_decay_rad_s,
+        kernel=t.frf.estimator.kernel() if settings.estimator and t.frf.estimator else None,
+        band_hz=t.frf.band_hz) for t in tests)
+    values = np.concatenate([t.H.ravel() for t in tests])
+    weights = np.concatenate([1.0 / t.sigma.ravel() for t in tests])
+    if 2 * values.size <= len(declared) + 1:
+        raise IdentifiabilityError(
+            f"{2 * values.size} real data values (lines x outputs x inputs x 2) cannot "
+            f"determine {len(declared)} declared parameters and a candidate; widen the band "
+            f"or add data")
+    f_max = max(float(t.freq_hz.max()) for t in tests)
+    refs = references(model_plant, nominal, f_max)
+    problem = Problem(model_plant, dict(nominal), ptests, values, weights, declared,
+                      {k: refs["time"] for k in declared if k == "delay_s"},
+                      sum(t.n_pairs for t in tests), None,
+                      {"max_iterations": settings.max_iterations,
+                       "tolerance": settings.tolerance})
+    current = fit(problem)
+    problem = _with_offsets(problem, current)
+    current = fit(problem, start=current.theta)
+    baseline = current
+    tried: list[Tried] = []
+    found: list[Found] = []
+    accepted: list[Candidate] = []
+    cands = catalogue(model_plant, nominal, tests, names=settings.candidates)
+    n = problem.n
+    for step in range(settings.max_effects):
+        screened = _screen(problem, current, cands, accepted, refs, step, tried)
+        if not screened or _approx_bic(n, current.chi2, screened[0][0], 1) \
+                < settings.threshold / 2:
+            break  # not even the best first-order drop could be significant
+        results = {}
+        for drop, c, guess in screened[:settings.refits]:
+            results[c.label] = _refit(problem, current, accepted, c, drop, guess, refs, n,
+                                      step, tried)
+        # locations next to the best located refit (a first-order score can rank a
+        # mirror image or a neighbour first for a large change)
+        best = max((r for r in results.values() if r and r[1].node is not None),
+                   key=lambda r: r[0], default=None)
+        if best is not None:
+            for drop, c, guess in screened:
+                if (c.effect == best[1].effect and c.label not in results
+                        and c.options.get("direction") == best[1].options.get("direction")
+                        and abs(c.node - best[1].node) <= 2):
+                    results[c.label] = _refit(problem, current, accepted, c, drop, guess,
+                                              refs, n, step, tried)
+        screened_out = {c.label for _, c, _ in screened} - set(results)
+        tried.extend(Tried(step, c.label, c.effect, c.options, drop)
+                     for drop, c, _ in screened if c.label in screened_out)
+        ok = [r for r in results.values() if r and not r[3].startswith("unphysical")]
+        if not ok:
+            break
+        dbic, c, quick, _ = max(ok, key=lambda r: r[0])
+        if not dbic > settings.threshold:
+            break
+        scales = c.scales(refs)
+        pc = replace(problem, scales={**problem.scales, **scales})
+        full = fit(pc, quick.terms, start=quick.theta)
+        dbic = float(n * np.log(current.chi2 / full.chi2) - len(c.fitted) * np.log(n))
+        if not dbic > settings.threshold:
+            break
+        accepted.append(c)
+        problem = _with_offsets(pc, full)
+        current = fit(problem, full.terms, start=full.theta)
+        own = {p.name: current.theta[f"{c.label}.{p.name}"] for p in c.fitted}
+        std = {p.name: current.std[f"{c.label}.{p.name}"] for p in c.fitted}
+        found.append(Found(c.effect, dict(c.options), c.effect_values(own), own, std,
+                           dbic, c.node, c.label))
+    data_modes = _identify(tests) if settings.identify_modes else [None] * len(tests)
+    before = residual_views(tests, _parts(tests, baseline.model), len(baseline.names),
+                            modes=_modes(tests, problem, baseline, data_modes))
+    after = residual_views(tests, _parts(tests, current.model), len(current.names),
+                           modes=_modes(tests, problem, current, data_modes))
+    return Diagnosis(tuple(found), before, after, baseline, current, tuple(tried), settings,
+                     tests, model_plant, dict(nominal), declared, n)
+
+
+def _approx_bic(n: int, chi2: float, drop: float, k: int) -> float:
+    """delta BIC of a predicted chi2 drop."""
+    drop = min(max(drop, 0.0), 0.999 * chi2)
+    return float(n * np.log(chi2 / (chi2 - drop)) - k * np.log(n))
+
+
+def _screen(problem, current, cands, accepted, refs, step, tried):
+    """Every candidate's first-order chi2 drop, best first: (drop, candidate, guess)."""
+    out = []
+    for c in cands:
+        if any(c.label == a.label for a in accepted):
+            continue
+        scales = c.scales(refs)
+        pc = replace(problem, scales={**problem.scales, **scales})
+        try:
+            cols = candidate_columns(pc, current, c.term(), scales)
+        except (ModelError, ValueError) as exc:
+            tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
+                               status=refit_error(exc)))
+            continue
+        start = np.array([p.start for p in c.fitted])
+        drop, guess = score(current, cols, start, [p.minimum for p in c.fitted])
+        out.append((drop, c, guess))
+    return sorted(out, key=lambda s: -s[0])
+
+
+def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried):
+    """A candidate's quick refit with the declared parameters and the effects found:
+    (delta BIC, candidate, fit, status) or None when it fails (recorded in ``tried``)."""
+    scales = c.scales(refs)
+    pc = replace(problem, scales={**problem.scales, **scales})
+    terms = tuple(a.term(start=_fitted_own(a, current.theta)) for a in accepted)
+    start = {p.name: float(v) for p, v in zip(c.fitted, guess, strict=True)}
+    try:
+        cf = fit(pc, terms + (c.term(start=start),), start=current.theta, quick=True)
+    except (IdentifiabilityError, ModelError, ValueError, np.linalg.LinAlgError) as exc:
+        tried.append(Tried(step, c.label, c.effect, c.options, drop, status=refit_error(exc)))
+        return None
+    dbic = float(n * np.log(current.chi2 / cf.chi2) - len(c.fitted) * np.log(n))
+    own = {p.name: cf.theta[f"{c.label}.{p.name}"] for p in c.fitted}
+    status = _bounds_ok(c, cf.theta, {}) or ("refitted" if cf.converged
+                                              else "refitted (iteration cap)")
+    tried.append(Tried(step, c.label, c.effect, c.options, drop, dbic, own,
+                       c.effect_values(own), status))
+    return dbic, c, cf, status
+
+
+def _fitted_own(c: Candidate, theta: Mapping[str, float]) -> dict[str, float]:
+    return {p.name: float(theta[f"{c.label}.{p.name}"]) for p in c.fitted
+            if f"{c.label}.{p.name}" in theta}
+
+
+__all__ = ["DiagnoseSettings", "Found", "Residual", "Tried", "diagnose"]

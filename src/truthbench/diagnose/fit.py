@@ -1,0 +1,296 @@
+"""Fitting a model with some effects to the data, and screening candidates cheaply.
+
+The cost is the noise-weighted squared residual over every compared line, output and
+input, real and imaginary parts apart,
+
+    chi2(theta) = sum ((Re, Im)(H_data - H_model(theta)) / sigma)^2,
+
+minimised by the project's finite-difference FRF updater (METHOD 5.1, Levenberg-
+Marquardt damped Gauss-Newton, identifiability checked at every iteration). The model
+FRF is what the data's estimator would have measured: the exact FRF at ``s = sigma_w +
+j omega`` for exponentially windowed data, plus, for averaged estimates whose window
+and segments are known, the leakage offset ``E[H1] - H`` computed at a reference fit
+and held during a fit (:class:`Problem.offsets`).
+
+Screening (:func:`score`) is the Lagrange-multiplier test of adding a candidate to the
+current fit: the candidate's sensitivity columns, projected off the current fit's
+Jacobian, predict the drop in chi2 of a Gauss-Newton step, ``r' A (A' A)^-1 A' r``,
+without refitting; a step that would take a parameter below its physical minimum
+scores only what the bound allows (a one-sided test).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from truthbench.errors import IdentifiabilityError, ModelError
+from truthbench.plants.base import Plant
+from truthbench.update.finite_difference import finite_difference_update, sensitivity_matrix
+from truthbench.update.predictor import APPENDED_PARAMETERS, EffectTerm, FRFPredictor, PredictedTest
+
+
+MODE_TOLERANCE = 1e-12
+"""Modes whose resonance peak at the data's channels is below this fraction of the
+largest are left out of the model FRFs (:func:`truthbench.model.frf`): far below any
+measured noise, and a several-fold speed-up for channels in one plane."""
+
+
+def stack(z: np.ndarray) -> np.ndarray:
+    """Real and imaginary parts one after the other (rows), shape (2 N, ...)."""
+    z = z.reshape(z.shape[0], -1) if z.ndim > 1 else z
+    return np.concatenate([z.real, z.imag], axis=0)
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """The data and the fixed parts of every model fitted to them.
+
+    Attributes
+    ----------
+    plant : Plant
+        The model's plant (with stations at the data's points and every node).
+    nominal : dict
+        Nominal plant parameters.
+    tests : tuple of PredictedTest
+        Lines and channels of each test (and its estimator).
+    data : ndarray, complex, shape (N,)
+        Every compared value, tests raveled and concatenated.
+    weights : ndarray, shape (N,)
+        ``1 / sigma`` of each value.
+    declared : tuple of str
+        Parameters the user trusts the model to get wrong (always refitted).
+    scales : dict
+        Natural size of every additively fitted parameter (the delay, candidates').
+    n_pairs : int
+        SISO transfer functions over the tests.
+    offsets : ndarray, complex, shape (N,), optional
+        The estimator's leakage offset ``E[H1] - H`` at a reference fit.
+    settings : dict
+        ``max_iterations``, ``tolerance``, ``relative_step``.
+    """
+
+    plant: Plant
+    nominal: dict
+    tests: tuple[PredictedTest, ...]
+    data: np.ndarray
+    weights: np.ndarray
+    declared: tuple[str, ...]
+    scales: dict
+    n_pairs: int
+    offsets: np.ndarray | None = None
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        """Real data values (twice the complex ones)."""
+        return 2 * self.data.size
+
+    def predictor(self, terms: Sequence[EffectTerm] = ()) -> FRFPredictor:
+        return FRFPredictor(self.plant, self.nominal, self.tests, tuple(terms),
+                            mode_tolerance=MODE_TOLERANCE)
+
+    def predict(self, terms: Sequence[EffectTerm] = ()):
+        """``theta -> model vector`` (exact FRF plus the held leakage offset)."""
+        pred = self.predictor(terms)
+        if self.offsets is None:
+            return pred.predict_vector
+        off = self.offsets
+        return lambda theta: pred.predict_vector(theta) + off
+
+    def chi2(self, model: np.ndarray) -> float:
+        return float(np.sum(np.abs(self.weights * (self.data - model)) ** 2))
+
+    def theta0(self, terms: Sequence[EffectTerm] = ()) -> dict[str, float]:
+        """Nominal values of every plant, appended and effect parameter."""
+        return self.predictor(terms).theta0
+
+    def additive(self, names: Sequence[str]) -> dict[str, float]:
+        return {n: self.scales[n] for n in names if n in self.scales}
+
+
+@dataclass(frozen=True, eq=False)
+class Fit:
+    """A model fitted to the data.
+
+    Attributes
+    ----------
+    terms : tuple of EffectTerm
+        The model's effects.
+    names : tuple of str
+        The fitted parameters.
+    theta : dict
+        Every parameter's value at the fit.
+    chi2 : float
+        The weighted cost at the fit.
+    converged : bool
+    iterations : int
+    jacobian : ndarray, shape (n, p)
+        Weighted, stacked sensitivities at the fit, per unit of each parameter.
+    residual : ndarray, shape (n,)
+        Weighted, stacked residual ``w (data - model)`` at the fit.
+    covariance : ndarray, shape (p, p)
+        Parameter covariance, ``s2 (J' J)^-1`` with ``s2 = chi2 / (n - p)`` (the noise
+        scale estimated from the residual), in the parameters' units.
+    model : ndarray, complex, shape (N,)
+        The model vector at the fit.
+    """
+
+    terms: tuple[EffectTerm, ...]
+    names: tuple[str, ...]
+    theta: dict
+    chi2: float
+    converged: bool
+    iterations: int
+    jacobian: np.ndarray
+    residual: np.ndarray
+    covariance: np.ndarray
+    model: np.ndarray
+
+    @property
+    def values(self) -> dict[str, float]:
+        return {n: float(self.theta[n]) for n in self.names}
+
+    @property
+    def std(self) -> dict[str, float]:
+        return {n: float(np.sqrt(max(self.covariance[i, i], 0.0)))
+                for i, n in enumerate(self.names)}
+
+
+def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
+        start: Mapping[str, float] | None = None, quick: bool = False) -> Fit:
+    """Fit the declared parameters and every fitted parameter of ``terms``.
+
+    Parameters
+    ----------
+    problem : Problem
+    terms : sequence of EffectTerm
+        The model's effects, in order.
+    start : mapping, optional
+        Starting values overriding the nominal ones.
+    quick : bool
+        A candidate's trial refit: forward differences, at most 10 iterations to a
+        relative change of 1e-4, and no Jacobian at the end (``jacobian`` and
+        ``covariance`` are empty). The chi2 is then within a small fraction of the
+        optimum's; the chosen candidate is refitted in full.
+
+    Raises
+    ------
+    IdentifiabilityError
+        The data cannot separate the parameters (with which combination).
+    """
+    terms = tuple(terms)
+    names = tuple(problem.declared) + tuple(k for t in terms for k in t.keys())
+    theta0 = {**problem.theta0(terms), **dict(start or {})}
+    predict = problem.predict(terms)
+    s = problem.settings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = finite_difference_update(
+            predict, problem.data, theta0, names, n_pairs=problem.n_pairs,
+            weights=problem.weights, additive=problem.additive(names),
+            max_iterations=10 if quick else s.get("max_iterations", 30),
+            tolerance=1e-4 if quick else s.get("tolerance", 1e-6),
+            relative_step=s.get("relative_step", 1e-4), max_step=4.0,
+            scheme="forward" if quick else "central")
+    converged = res.converged and not any("did not converge" in str(w.message)
+                                          for w in caught)
+    theta = {**theta0, **res.as_dict()}
+    if quick:
+        model = np.asarray(predict(theta))
+        empty = np.zeros((0, len(names)))
+        return Fit(terms, names, theta, problem.chi2(model), bool(converged),
+                   res.n_iterations, empty, np.zeros(0), np.full((len(names),) * 2, np.nan),
+                   model)
+    return evaluate(problem, terms, names, theta, converged, res.n_iterations)
+
+
+def evaluate(problem: Problem, terms: Sequence[EffectTerm], names: Sequence[str],
+             theta: Mapping[str, float], converged: bool = True, iterations: int = 0) -> Fit:
+    """The :class:`Fit` of ``terms`` at ``theta`` (Jacobian, residual, covariance)."""
+    terms, names = tuple(terms), tuple(names)
+    predict = problem.predict(terms)
+    model = np.asarray(predict(theta))
+    additive = problem.additive(names)
+    S, _ = sensitivity_matrix(predict, theta, names, relative_step=problem.settings.get(
+        "relative_step", 1e-4), scheme="central", G0=model, additive=additive)
+    # per unit of each parameter: relative steps were per theta_k, additive per scale
+    unit = np.array([additive[n] if n in additive else theta[n] for n in names], float)
+    J = stack(S * problem.weights[:, None]) / unit
+    r = stack(problem.weights * (problem.data - model))
+    chi2 = float(r @ r)
+    p = len(names)
+    s2 = chi2 / max(problem.n - p, 1)
+    cov = s2 * np.linalg.pinv(J.T @ J)
+    return Fit(terms, names, dict(theta), chi2, bool(converged), int(iterations), J, r, cov,
+               model)
+
+
+def candidate_columns(problem: Problem, current: Fit, term: EffectTerm,
+                      scales: Mapping[str, float], step: float = 1e-3) -> np.ndarray:
+    """Weighted, stacked sensitivities of the model at ``current`` to ``term``'s fitted
+    parameters (forward differences of ``step`` natural sizes from their start), per unit
+    of each parameter, shape (n, k)."""
+    terms = current.terms + (term,)
+    predict = problem.predict(terms)
+    theta = {**current.theta, **{k: v for k, v in problem.predictor(terms).theta0.items()
+                                 if k in term.keys()}}
+    base = np.asarray(predict(theta))
+    cols = []
+    for key in term.keys():
+        h = step * scales[key]
+        moved = dict(theta)
+        moved[key] = theta[key] + h
+        cols.append(stack(problem.weights * (np.asarray(predict(moved)) - base)) / h)
+    return np.column_stack(cols)
+
+
+def score(current: Fit, columns: np.ndarray, start: np.ndarray,
+          minimum: Sequence[float | None]) -> tuple[float, np.ndarray]:
+    """Predicted chi2 drop of adding parameters with sensitivity ``columns`` to the
+    ``current`` fit (Gauss-Newton, the current parameters refitted too), and the
+    predicted values of the new parameters.
+
+    A new parameter whose predicted value falls below its ``minimum`` is held at the
+    bound (one-sided test): the other new parameters are rescored without it.
+
+    Returns
+    -------
+    drop : float
+    values : ndarray, shape (k,)
+    """
+    Q, _ = np.linalg.qr(current.jacobian)
+    A = columns - Q @ (Q.T @ columns)
+    r = current.residual
+    free = np.ones(A.shape[1], dtype=bool)
+    values = np.array(start, dtype=float)
+    for _ in range(A.shape[1] + 1):
+        if not free.any():
+            return 0.0, values
+        Af = A[:, free]
+        delta, *_ = np.linalg.lstsq(Af, r, rcond=None)
+        cand = values.copy()
+        cand[free] = start[free] + delta
+        low = np.array([m is not None and c < m for c, m in zip(cand, minimum, strict=True)])
+        if not low[free].any():
+            fitted = Af @ delta
+            return float(2 * fitted @ r - fitted @ fitted), cand
+        free &= ~low
+        values[low] = [m for m, b in zip(minimum, low, strict=True) if b]
+    return 0.0, values
+
+
+def refit_error(exc: Exception) -> str:
+    """A refit's failure as a short message for the candidates table."""
+    if isinstance(exc, IdentifiabilityError):
+        return f"not separable: {exc}"
+    if isinstance(exc, ModelError | ValueError):
+        return f"model refused: {exc}"
+    return f"{type(exc).__name__}: {exc}"
+
+
+__all__ = ["APPENDED_PARAMETERS", "Fit", "Problem", "candidate_columns", "evaluate", "fit",
+           "refit_error", "score", "stack"]

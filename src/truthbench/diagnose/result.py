@@ -1,0 +1,200 @@
+"""The result of a diagnosis: what was found, the residual before and after, the evidence.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from truthbench.diagnose.core import DiagnoseSettings, Found, Tried
+from truthbench.diagnose.fit import Fit
+from truthbench.diagnose.residual import Residual
+from truthbench.plants.base import Plant
+
+TABLES = ("found", "candidates", "channels", "modes", "pairs", "summary")
+
+
+def _clean(value):
+    """JSON-safe: NaN and inf to None, numpy scalars and arrays to Python."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return [_clean(v) for v in value.tolist()]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """What :func:`~truthbench.diagnose.diagnose` found.
+
+    Attributes
+    ----------
+    found : tuple of Found
+        The effects added, in the order found (empty: nothing missing).
+    before, after : Residual
+        The residual views of the baseline (declared parameters fitted) and of the final
+        model (with the found effects).
+    baseline, final : Fit
+    tried : tuple of Tried
+        Every candidate screened or refitted, per step.
+    settings : DiagnoseSettings
+    tests : tuple of MeasuredTest
+    plant : Plant
+        The model's plant (with the stations the data and candidates use).
+    nominal : dict
+    declared : tuple of str
+    n : int
+        Real data values compared.
+    """
+
+    found: tuple[Found, ...]
+    before: Residual
+    after: Residual
+    baseline: Fit
+    final: Fit
+    tried: tuple[Tried, ...]
+    settings: DiagnoseSettings
+    tests: tuple
+    plant: Plant
+    nominal: dict
+    declared: tuple[str, ...]
+    n: int
+
+    @property
+    def frf_error_before(self) -> float:
+        return self.before.frf_error
+
+    @property
+    def frf_error_after(self) -> float:
+        return self.after.frf_error
+
+    def ranked(self, step: int = 0) -> list[Tried]:
+        """The candidates refitted at ``step``, best delta BIC first."""
+        done = [t for t in self.tried if t.step == step and not math.isnan(t.delta_bic)]
+        return sorted(done, key=lambda t: -t.delta_bic)
+
+    def declared_values(self, fit: str = "final") -> dict[str, float]:
+        f = self.final if fit == "final" else self.baseline
+        return {k: float(f.theta[k]) for k in self.declared}
+
+    def to_dict(self) -> dict:
+        """One JSON-safe object: ``found`` (registry names, parameters, options, std,
+        delta BIC), ``frf_error_before`` / ``frf_error_after`` (the noise-weighted relative
+        RMS of the FRF residual), ``reduced_chi2_before`` / ``after``, ``declared`` (the
+        declared parameters before and after), ``candidates`` (ranked per step, with the
+        criterion), ``modes`` (frequency and damping errors before and after), ``channels``
+        and ``pairs`` (the other residual views), ``settings``."""
+        return _clean({
+            "found": [{"effect": f.effect, "parameters": f.parameters,
+                       "options": f.options, "fitted": f.fitted, "std": f.std,
+                       "delta_bic": f.delta_bic, "node": f.node} for f in self.found],
+            "frf_error_before": self.frf_error_before,
+            "frf_error_after": self.frf_error_after,
+            "reduced_chi2_before": self.before.reduced_chi2,
+            "reduced_chi2_after": self.after.reduced_chi2,
+            "delay_s_before": self.before.delay_s, "delay_s_after": self.after.delay_s,
+            "declared": {"names": list(self.declared),
+                         "before": self.declared_values("baseline"),
+                         "after": self.declared_values("final")},
+            "candidates": [{"step": t.step, "candidate": t.label, "effect": t.effect,
+                            "options": t.options, "delta_bic": t.delta_bic,
+                            "screen_chi2_drop": t.screen_drop, "fitted": t.fitted,
+                            "parameters": t.parameters, "status": t.status}
+                           for step in sorted({t.step for t in self.tried})
+                           for t in self.ranked(step)],
+            "modes": {"before": [asdict(m) for m in self.before.modes],
+                      "after": [asdict(m) for m in self.after.modes]},
+            "channels": {"before": [asdict(c) for c in self.before.channels],
+                         "after": [asdict(c) for c in self.after.channels]},
+            "pairs": [asdict(p) for p in self.before.pairs],
+            "n_values": self.n,
+            "settings": {k: v for k, v in asdict(self.settings).items()},
+        })
+
+    def to_pandas(self, table: str = "candidates"):
+        """A table of the diagnosis.
+
+        Parameters
+        ----------
+        table : {"found", "candidates", "channels", "modes", "pairs", "summary"}
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        import pandas as pd
+
+        if table not in TABLES:
+            raise ValueError(f"table must be one of {', '.join(TABLES)}; got {table!r}")
+        if table == "found":
+            return pd.DataFrame([{"effect": f.effect, "location": _where(f.options),
+                                  **{f"{k}": v for k, v in f.parameters.items()},
+                                  **{f"std {k}": v for k, v in f.std.items()},
+                                  "delta_bic": f.delta_bic} for f in self.found])
+        if table == "candidates":
+            rows = [{"step": t.step, "candidate": t.label, "effect": t.effect,
+                     "delta_bic": t.delta_bic, "screen_chi2_drop": t.screen_drop,
+                     "status": t.status, **{f"fit {k}": v for k, v in t.fitted.items()}}
+                    for t in self.tried]
+            df = pd.DataFrame(rows)
+            return df.sort_values(["step", "delta_bic", "screen_chi2_drop"],
+                                  ascending=[True, False, False], na_position="last",
+                                  ignore_index=True) if not df.empty else df
+        if table == "channels":
+            rows = []
+            for when, res in (("before", self.before), ("after", self.after)):
+                rows += [{"model": when, **asdict(c)} for c in res.channels]
+            return pd.DataFrame(rows)
+        if table == "modes":
+            rows = []
+            for when, res in (("before", self.before), ("after", self.after)):
+                rows += [{"model": when, **asdict(m)} for m in res.modes]
+            return pd.DataFrame(rows)
+        if table == "pairs":
+            return pd.DataFrame([asdict(p) for p in self.before.pairs])
+        return pd.DataFrame([{"model": when, "frf_error": r.frf_error, "chi2": r.chi2,
+                              "reduced_chi2": r.reduced_chi2, "delay_s": r.delay_s}
+                             for when, r in (("before", self.before), ("after", self.after))])
+
+    def model_frfs(self, which: str = "final") -> list[np.ndarray]:
+        """The model FRFs at each test's lines (as compared: signs applied, through the
+        estimator), shape (n_lines, n_out, n_in) each."""
+        f = self.final if which == "final" else self.baseline
+        out, k = [], 0
+        for t in self.tests:
+            out.append(f.model[k:k + t.H.size].reshape(t.H.shape))
+            k += t.H.size
+        return out
+
+    def plot(self, kind: str = "residual", *, test: int = 0):
+        """A figure of the diagnosis.
+
+        Parameters
+        ----------
+        kind : {"residual", "frf", "candidates", "modes"}
+            ``residual``: the noise-weighted residual per channel against frequency,
+            before and after; ``frf``: data, baseline and final model of one test;
+            ``candidates``: delta BIC of the refitted candidates per step; ``modes``:
+            frequency errors before and after against mode.
+        test : int
+            The test of ``frf`` and ``residual``.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from truthbench.diagnose.figures import plot_diagnosis
+
+        return plot_diagnosis(self, kind, test=test)
+
+
+def _where(options: dict) -> str:
+    return ", ".join(f"{k} {v}" for k, v in options.items()) or "-"
