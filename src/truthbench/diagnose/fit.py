@@ -32,7 +32,6 @@ from truthbench.plants.base import Plant
 from truthbench.update.finite_difference import finite_difference_update, sensitivity_matrix
 from truthbench.update.predictor import APPENDED_PARAMETERS, EffectTerm, FRFPredictor, PredictedTest
 
-
 MODE_TOLERANCE = 1e-12
 """Modes whose resonance peak at the data's channels is below this fraction of the
 largest are left out of the model FRFs (:func:`truthbench.model.frf`): far below any
