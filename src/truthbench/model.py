@@ -289,9 +289,10 @@ def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0
     mode_tolerance : float, optional
         Leave out the uncoupled elastic modes whose resonance peak at these outputs and
         inputs, ``max |c_r omega_r^p b_r| / (omega_r xi_r)`` (p the output's power of
-        j omega), is below this fraction of the largest (modes the channels barely see: other planes, axial and torsion for
-        bending channels). The response left out is at most the number of such modes
-        times this fraction of the largest peak. 0 (the default) keeps every mode.
+        j omega), is below this fraction of the largest (modes the channels barely see:
+        other planes, axial and torsion for bending channels). The response left out is
+        at most the number of such modes times this fraction of the largest peak. 0 (the
+        default) keeps every mode.
 
     Returns
     -------
