@@ -319,6 +319,52 @@ class OutputSpec(_Strict):
     of none (FRFs, truth records and modes are always kept)."""
 
 
+class StudySpec(_Strict):
+    """``[diagnose.study]``: a Monte Carlo study of the diagnosis itself
+    (``truthbench diagnose-study``). Each trial injects none, one or two effects drawn
+    from ``inject`` at random strengths (log-uniform in ``strength``) and locations,
+    simulates the campaign's tests, diagnoses them against the nominal model and scores
+    the diagnosis against what was injected."""
+
+    inject: Annotated[list[str], Field(min_length=1)] = Field(
+        default_factory=lambda: ["time_delay", "channel_gain", "added_mass",
+                                 "grounded_dashpot", "grounded_spring", "joint"])
+    strength: dict[str, tuple[PositiveFloat, PositiveFloat]] = Field(default_factory=dict)
+    """Effect name -> (low, high) of its first parameter (the effect's own unit, e.g.
+    ``added_mass = [0.01, 0.1]`` kg); default ranges per effect otherwise."""
+    clean_fraction: Annotated[float, Field(ge=0, le=1)] = 0.2
+    two_fraction: Annotated[float, Field(ge=0, le=1)] = 0.2
+    trials: Annotated[int, Field(ge=1)] = 20
+
+
+class DiagnoseSpec(_Strict):
+    """``[diagnose]``: how ``truthbench diagnose`` treats data against this model (see
+    :class:`truthbench.diagnose.DiagnoseSettings`)."""
+
+    candidates: list[str] | None = None
+    """Registry names of the effects to try as missing (default: every diagnosable one)."""
+    band_hz: tuple[NonNegFloat, PositiveFloat] | None = None
+    tolerance_m: PositiveFloat = 1e-3
+    """Largest distance of a measured point from its model node, m."""
+    map: dict[str, float] = Field(default_factory=dict)
+    """Point number (as a string key) -> position along the beam, m, for data whose
+    coordinates are not in the model's frame."""
+    max_effects: Annotated[int, Field(ge=0, le=5)] = 2
+    threshold: NonNegFloat = 10.0
+    refits: Annotated[int, Field(ge=1, le=50)] = 6
+    estimator: bool = True
+    """Compare through the data's estimator (leakage of averaged H1) when it is known."""
+    study: StudySpec = Field(default_factory=StudySpec)
+
+    def settings(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`truthbench.diagnose.diagnose`."""
+        return {"candidates": None if self.candidates is None else tuple(self.candidates),
+                "band_hz": self.band_hz, "tolerance_m": self.tolerance_m,
+                "point_map": {int(k): v for k, v in self.map.items()},
+                "max_effects": self.max_effects, "threshold": self.threshold,
+                "refits": self.refits, "estimator": self.estimator}
+
+
 class CampaignSpec(_Strict):
     """A validated campaign (frozen)."""
 
@@ -331,6 +377,7 @@ class CampaignSpec(_Strict):
     update: UpdateSpec = Field(default_factory=UpdateSpec)
     uncertainty: UncertaintySpec = Field(default_factory=UncertaintySpec)
     output: OutputSpec = Field(default_factory=OutputSpec)
+    diagnose: DiagnoseSpec = Field(default_factory=DiagnoseSpec)
     source: str = "<memory>"
 
     def make_plant(self):

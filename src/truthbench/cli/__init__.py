@@ -13,6 +13,7 @@ import sys
 
 from truthbench._version import __version__
 from truthbench.cli import (
+    diagnose,
     export,
     identify,
     modes,
@@ -23,7 +24,7 @@ from truthbench.cli import (
     study,
 )
 
-COMMANDS = (run, report, simulate, identify, export, study, place_sensors, modes)
+COMMANDS = (run, report, simulate, identify, export, diagnose, study, place_sensors, modes)
 """The command modules, in the order ``--help`` lists them."""
 
 

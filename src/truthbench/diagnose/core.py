@@ -37,8 +37,23 @@ from threadpoolctl import threadpool_limits
 
 from truthbench.diagnose.candidates import Candidate, catalogue, references, with_node_stations
 from truthbench.diagnose.data import MeasuredTest, prepare
-from truthbench.diagnose.fit import Fit, Problem, candidate_columns, fit, refit_error, score
-from truthbench.diagnose.residual import ModeResidual, Residual, mpc, residual_views
+from truthbench.diagnose.fit import (
+    Fit,
+    Problem,
+    candidate_columns,
+    evaluate,
+    fit,
+    fit_magnitude,
+    refit_error,
+    score,
+)
+from truthbench.diagnose.residual import (
+    ModeResidual,
+    Residual,
+    matched_delay,
+    mpc,
+    residual_views,
+)
 from truthbench.errors import IdentifiabilityError, ModelError
 from truthbench.measure.frfdata import FRFData
 from truthbench.plants.base import Plant
@@ -258,10 +273,14 @@ def _diagnose(data, plant, nominal, parameters, settings):
                       sum(t.n_pairs for t in tests), None,
                       {"max_iterations": settings.max_iterations,
                        "tolerance": settings.tolerance})
-    current = fit(problem)
+    structural = fit_magnitude(problem)
+    current = fit(problem, start=structural)
     problem = _with_offsets(problem, current)
     current = fit(problem, start=current.theta)
     baseline = current
+    # the phase signatures are read against the magnitude fit, which a phase error does
+    # not distort (the complex fit may bend the structure to mimic part of it)
+    signature_fit = evaluate(problem, (), declared, structural)
     tried: list[Tried] = []
     found: list[Found] = []
     accepted: list[Candidate] = []
@@ -269,13 +288,24 @@ def _diagnose(data, plant, nominal, parameters, settings):
     n = problem.n
     for step in range(settings.max_effects):
         screened = _screen(problem, current, cands, accepted, refs, step, tried)
-        if not screened or _approx_bic(n, current.chi2, screened[0][0], 1) \
-                < settings.threshold / 2:
-            break  # not even the best first-order drop could be significant
+        if not screened:
+            break
+        # candidates a residual signature points at start where it points (a delay from
+        # the matched-delay profile, a gain from the magnitude ratio), with the declared
+        # parameters of the magnitude fit at the first step: a first-order score from
+        # zero misjudges a phase error of several radians
+        base = signature_fit if step == 0 else current
+        views = residual_views(tests, _parts(tests, base.model), len(base.names))
         results = {}
+        for drop, c, _ in screened:
+            start = _signature_start(c, views, tests, base.model)
+            if start is not None:
+                results[c.label] = _refit(problem, current, accepted, c, drop, start, refs,
+                                          n, step, tried, declared_start=base.theta)
         for drop, c, guess in screened[:settings.refits]:
-            results[c.label] = _refit(problem, current, accepted, c, drop, guess, refs, n,
-                                      step, tried)
+            if c.label not in results:
+                results[c.label] = _refit(problem, current, accepted, c, drop, guess, refs,
+                                          n, step, tried)
         # locations next to the best located refit (a first-order score can rank a
         # mirror image or a neighbour first for a large change)
         best = max((r for r in results.values() if r and r[1].node is not None),
@@ -290,20 +320,29 @@ def _diagnose(data, plant, nominal, parameters, settings):
         screened_out = {c.label for _, c, _ in screened} - set(results)
         tried.extend(Tried(step, c.label, c.effect, c.options, drop)
                      for drop, c, _ in screened if c.label in screened_out)
-        ok = [r for r in results.values() if r and not r[3].startswith("unphysical")]
-        if not ok:
+        ok = sorted((r for r in results.values()
+                     if r and not r[3].startswith("unphysical") and r[0] > settings.threshold),
+                    key=lambda r: -r[0])
+        chosen = None
+        for _, c, quick, _ in ok[:3]:  # the best whose full refit holds up
+            pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
+            try:
+                full = fit(pc, quick.terms, start=quick.theta)
+            except (IdentifiabilityError, ModelError, ValueError,
+                    np.linalg.LinAlgError) as exc:
+                tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
+                                   status=f"full refit: {refit_error(exc)}"))
+                continue
+            dbic = float(n * np.log(current.chi2 / full.chi2) - len(c.fitted) * np.log(n))
+            if dbic > settings.threshold and not _bounds_ok(c, full.theta, full.std):
+                chosen = c, full, dbic
+                break
+        if chosen is None:
             break
-        dbic, c, quick, _ = max(ok, key=lambda r: r[0])
-        if not dbic > settings.threshold:
-            break
-        scales = c.scales(refs)
-        pc = replace(problem, scales={**problem.scales, **scales})
-        full = fit(pc, quick.terms, start=quick.theta)
-        dbic = float(n * np.log(current.chi2 / full.chi2) - len(c.fitted) * np.log(n))
-        if not dbic > settings.threshold:
-            break
+        c, full, dbic = chosen
         accepted.append(c)
-        problem = _with_offsets(pc, full)
+        problem = _with_offsets(replace(problem, scales={**problem.scales,
+                                                          **c.scales(refs)}), full)
         current = fit(problem, full.terms, start=full.theta)
         own = {p.name: current.theta[f"{c.label}.{p.name}"] for p in c.fitted}
         std = {p.name: current.std[f"{c.label}.{p.name}"] for p in c.fitted}
@@ -318,10 +357,25 @@ def _diagnose(data, plant, nominal, parameters, settings):
                      tests, model_plant, dict(nominal), declared, n)
 
 
-def _approx_bic(n: int, chi2: float, drop: float, k: int) -> float:
-    """delta BIC of a predicted chi2 drop."""
-    drop = min(max(drop, 0.0), 0.999 * chi2)
-    return float(n * np.log(chi2 / (chi2 - drop)) - k * np.log(n))
+def _signature_start(c: Candidate, views: Residual, tests, model) -> np.ndarray | None:
+    """Starting values a residual signature gives a candidate, or None: the matched
+    delay (the chi2 profile of a pure delay, searched from the phase slope) for a delay
+    or a low-pass (whose phase falls as -omega tau at low frequency), the magnitude ratio
+    less 1 for a gain (of one channel, or of all)."""
+    if c.effect in ("time_delay", "actuator_dynamics", "sensor_dynamics"):
+        f = np.concatenate([np.broadcast_to(t.freq_hz[:, None, None], t.H.shape).ravel()
+                            for t in tests])
+        data = np.concatenate([t.H.ravel() for t in tests])
+        w = np.concatenate([1.0 / t.sigma.ravel() for t in tests])
+        return np.array([matched_delay(f, data, model, w, views.delay_s)])
+    if c.effect == "channel_gain":
+        ratios = [ch.magnitude_ratio for ch in views.channels
+                  if ch.output == c.options["sensor"]]
+        return np.array([float(np.mean(ratios)) - 1.0]) if ratios else None
+    if c.effect == "sensor_bias":
+        return np.array([float(np.mean([ch.magnitude_ratio for ch in views.channels]))
+                         - 1.0])
+    return None
 
 
 def _screen(problem, current, cands, accepted, refs, step, tried):
@@ -344,15 +398,19 @@ def _screen(problem, current, cands, accepted, refs, step, tried):
     return sorted(out, key=lambda s: -s[0])
 
 
-def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried):
+def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
+           declared_start=None):
     """A candidate's quick refit with the declared parameters and the effects found:
-    (delta BIC, candidate, fit, status) or None when it fails (recorded in ``tried``)."""
+    (delta BIC, candidate, fit, status) or None when it fails (recorded in ``tried``).
+    The parameters start at ``current`` (or ``declared_start``), the candidate's at
+    ``guess``."""
     scales = c.scales(refs)
     pc = replace(problem, scales={**problem.scales, **scales})
     terms = tuple(a.term(start=_fitted_own(a, current.theta)) for a in accepted)
     start = {p.name: float(v) for p, v in zip(c.fitted, guess, strict=True)}
+    theta = current.theta if declared_start is None else declared_start
     try:
-        cf = fit(pc, terms + (c.term(start=start),), start=current.theta, quick=True)
+        cf = fit(pc, terms + (c.term(start=start),), start=theta, quick=True)
     except (IdentifiabilityError, ModelError, ValueError, np.linalg.LinAlgError) as exc:
         tried.append(Tried(step, c.label, c.effect, c.options, drop, status=refit_error(exc)))
         return None

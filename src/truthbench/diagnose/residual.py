@@ -108,6 +108,27 @@ def phase_slope_delay(freq_hz: np.ndarray, D: np.ndarray, M: np.ndarray,
     return 0.0 if acc == 0 else float(-np.angle(acc) / (2 * np.pi * step))
 
 
+def matched_delay(freq_hz: np.ndarray, D: np.ndarray, M: np.ndarray, w: np.ndarray,
+                  tau0: float, n_grid: int = 400) -> float:
+    """The delay that best explains ``D ~ M exp(-j omega tau)``: the maximum of
+    ``Re sum w^2 conj(D) M exp(-j omega tau)`` (the chi2 profile of a pure delay with the
+    model held) over ``0 <= tau <= max(3 tau0, 4 / (2 pi f_max))``, refined by a parabola
+    through the best grid point and its neighbours, s. Arrays (n_lines, ...)."""
+    f = np.asarray(freq_hz, dtype=float)
+    z = (np.conj(D) * M * w**2).reshape(f.size, -1).sum(axis=1)
+    w_rad = 2 * np.pi * f
+    top = max(3 * max(tau0, 0.0), 4.0 / w_rad.max())
+    taus = np.linspace(0.0, top, n_grid)
+    c = np.real(np.exp(-1j * np.outer(taus, w_rad)) @ z)
+    k = int(np.argmax(c))
+    if 0 < k < n_grid - 1:
+        a, b, d = c[k - 1], c[k], c[k + 1]
+        den = a - 2 * b + d
+        if den < 0:
+            return float(taus[k] + 0.5 * (a - d) / den * (taus[1] - taus[0]))
+    return float(taus[k])
+
+
 def channel_residuals(tests, model_parts: Sequence[np.ndarray], n_parameters: int
                       ) -> tuple[ChannelResidual, ...]:
     """Per (test, output, input) views; ``model_parts[j]`` is test j's model FRF at its

@@ -1,0 +1,88 @@
+"""``truthbench diagnose``: trace the residual of measured FRFs to the effect the model lacks.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def _cmd_diagnose(args) -> int:
+    import json
+
+    from truthbench.campaign.model_file import load_model
+    from truthbench.diagnose import diagnose
+    from truthbench.campaign.store import load_frf  # the .h5 reader registers with it
+    from truthbench.report.format import pct, sig
+
+    spec = load_model(args.model)
+    data = []
+    for path in args.data:
+        options = {"trials": args.trial} if args.trial is not None and \
+            str(path).lower().endswith((".h5", ".hdf5")) else {}
+        data += list(load_frf(path, **options))
+    settings = spec.diagnose.settings()
+    for key in ("max_effects", "threshold"):
+        if getattr(args, key) is not None:
+            settings[key] = getattr(args, key)
+    if args.candidate:
+        settings["candidates"] = tuple(args.candidate)
+    if args.band:
+        settings["band_hz"] = tuple(args.band)
+    diag = diagnose(data, spec.make_plant(), spec.nominal_parameters(),
+                    spec.update.parameters, **settings)
+    written = None
+    if args.out:
+        from truthbench.report.diagnosis import write_diagnosis
+
+        written = write_diagnosis(diag, args.out, sources=tuple(map(str, args.data)))
+    if args.json:
+        print(json.dumps(diag.to_dict(), indent=2, allow_nan=False))
+        return 0
+    print(f"{spec.source}: {len(diag.tests)} test(s), {diag.n} real values; declared "
+          f"{', '.join(diag.declared) or 'none'}")
+    if not diag.found:
+        print("found: nothing missing")
+    for f in diag.found:
+        fitted = ", ".join(f"{k} = {sig(v)} +- {sig(f.std[k], 2)}" for k, v in f.fitted.items())
+        where = ", ".join(f"{k} {v}" for k, v in f.options.items()) or "-"
+        print(f"found: {f.effect} ({where}): {fitted}; delta BIC {sig(f.delta_bic)}")
+    print(f"FRF error (noise-weighted relative RMS): {pct(100 * diag.frf_error_before)} % "
+          f"before, {pct(100 * diag.frf_error_after)} % after; reduced chi2 "
+          f"{sig(diag.before.reduced_chi2)} -> {sig(diag.after.reduced_chi2)}")
+    print("candidates (step 1, best first):")
+    for t in diag.ranked(0)[:8]:
+        print(f"  {t.label:<32} delta BIC {sig(t.delta_bic):>10}  {t.status}")
+    if written is not None:
+        print(f"report: {written}")
+        print(f"        {written.with_suffix('.md')}")
+    return 0
+
+
+def register(subparsers) -> None:
+    d = subparsers.add_parser(
+        "diagnose", help="find the effect a model lacks from measured FRFs",
+        description="Fit the model's declared parameters to measured FRFs (the baseline), "
+                    "then try every effect of the registry that can be missing at every "
+                    "location and add the best while it is significant (delta BIC); print "
+                    "the FRF error before and after.",
+        epilog="example: truthbench diagnose data.uff --model campaigns/steel_tube.toml "
+               "--out results/diagnosis",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    d.add_argument("data", nargs="+",
+                   help="measured FRFs: UFF 58 (+164, 2411), LVM, or a truthbench .h5")
+    d.add_argument("--model", required=True,
+                   help="model file: [plant], [update] parameters, [diagnose] (a campaign "
+                        "file works too)")
+    d.add_argument("--out", help="write diagnosis.md, diagnosis.html and figures here")
+    d.add_argument("--json", action="store_true", help="print one JSON object")
+    d.add_argument("--max-effects", type=int, help="most effects to add (default: the "
+                                                   "model file's, 2)")
+    d.add_argument("--threshold", type=float, help="delta BIC an effect must exceed "
+                                                   "(default: the model file's, 10)")
+    d.add_argument("--candidate", action="append", metavar="EFFECT",
+                   help="try only these effects (repeatable)")
+    d.add_argument("--band", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="compare these lines only, Hz")
+    d.add_argument("--trial", type=int, help="the trial of a results file (default: all "
+                                             "data sets in the files)")
+    d.set_defaults(func=_cmd_diagnose)

@@ -1,0 +1,160 @@
+"""The diagnosis report: ``diagnosis.md`` and ``diagnosis.html`` with figures, from a
+:class:`~truthbench.diagnose.Diagnosis` (never reruns numerics)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from truthbench.report.format import markdown, pct, sig, table
+from truthbench.report.html import write_html
+
+
+def _save(fig, path: Path) -> str:
+    import matplotlib.pyplot as plt
+
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path.name
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
+
+
+def _where(options: dict) -> str:
+    return ", ".join(f"{k} {v}" for k, v in options.items()) or "-"
+
+
+def _value(v: float, s: float | None = None) -> str:
+    return sig(v) if s is None else f"{sig(v)} ± {sig(s, 2)}"
+
+
+def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
+                       sources: tuple[str, ...] = ()) -> str:
+    """The report's markdown; ``figures`` maps a figure's role to its file name."""
+    figures = figures or {}
+    out = ["# truthbench diagnosis", ""]
+    if sources:
+        out += [f"- data: {', '.join(sources)}"]
+    out += [f"- tests: {', '.join(t.name for t in diag.tests)}; "
+            f"{diag.n} real values compared (lines x outputs x inputs x 2)",
+            f"- declared parameters (the baseline fits them): "
+            f"{', '.join(diag.declared) or 'none'}",
+            f"- criterion: delta BIC (noise scale profiled out) above "
+            f"{sig(diag.settings.threshold)}; at most {diag.settings.max_effects} effects",
+            ""]
+    out += ["## Verdict", ""]
+    if not diag.found:
+        out += ["Nothing missing: no candidate effect lowers the residual enough to "
+                "outweigh its added parameters.", ""]
+    for f in diag.found:
+        params = ", ".join(f"{k} = {_value(v, f.std.get(k))}" for k, v in f.fitted.items())
+        effect = ", ".join(f"{k} = {sig(v)}" for k, v in f.parameters.items())
+        out += [f"- **{f.effect}** at {_where(f.options)}: {params} (effect parameters: "
+                f"{effect}); delta BIC {sig(f.delta_bic)}"]
+    out += ["", "## Error before and after", "",
+            "The FRF error is the noise-weighted relative RMS of the residual over every "
+            "compared value, `sqrt(sum |w (D - M)|^2 / sum |w D|^2)`, w = 1 / sigma from "
+            "each value's coherence and averages; the reduced chi2 is 1 when the residual "
+            "is noise.", ""]
+    rows = [{"model": "baseline (declared parameters fitted)", **_row(diag.before)},
+            {"model": "with the effects found", **_row(diag.after)}]
+    import pandas as pd
+
+    out.append(markdown(pd.DataFrame(rows)))
+    dec = diag.declared_values("baseline"), diag.declared_values("final")
+    if diag.declared:
+        out += ["", "Declared parameters: " + "; ".join(
+            f"{k} {sig(dec[0][k])} -> {sig(dec[1][k])}" for k in diag.declared), ""]
+    for role, name in figures.items():
+        if role.startswith("residual"):
+            out += ["", f"![residual over noise, {role[9:]}]({name})"]
+    out += ["", "## Candidates", "",
+            "Screened by the first-order (score) drop of chi2, the best refitted with the "
+            "declared parameters and the effects found before; ranked by delta BIC.", ""]
+    cand = diag.to_pandas("candidates")
+    refitted = cand[cand["delta_bic"].notna()] if not cand.empty else cand
+    if not refitted.empty:
+        refitted = refitted.assign(fitted=[
+            ", ".join(f"{k[4:]} {sig(v)}" for k, v in r.items()
+                      if k.startswith("fit ") and v == v)
+            for _, r in refitted.iterrows()])
+        out.append(markdown(table(refitted.head(30), [
+            ("step", "step", lambda v: str(int(v) + 1)), ("candidate", "candidate", str),
+            ("delta_bic", "delta BIC", sig), ("screen_chi2_drop", "screened chi2 drop", sig),
+            ("fitted", "fitted", str), ("status", "status", str)])))
+    failed = cand[cand["status"].str.startswith(("not separable", "model refused"))] \
+        if not cand.empty else cand
+    if not failed.empty:
+        out += ["", "Candidates the data cannot separate from the declared parameters or "
+                "that the model refused (a limit of these data, not a verdict):", ""]
+        out += [f"- {r.candidate}: {r.status}" for r in failed.head(10).itertuples()]
+    if "candidates" in figures:
+        out += ["", f"![candidates]({figures['candidates']})"]
+    out += ["", "## Residual views", ""]
+    ch = diag.to_pandas("channels")
+    if not ch.empty:
+        out.append(markdown(table(ch, [
+            ("model", "model", str), ("test", "test", str), ("output", "output", str),
+            ("input", "input", str), ("frf_error", "FRF error [%]", lambda v: pct(100 * v)),
+            ("reduced_chi2", "reduced chi2", sig),
+            ("magnitude_ratio", "magnitude ratio", lambda v: sig(v, 5)),
+            ("delay_s", "phase-slope delay [ms]", lambda v: sig(1e3 * v, 3))])))
+    modes = diag.to_pandas("modes")
+    out += ["", "Paired modes (data identified by pLSCF, paired by MAC at the measured "
+            "DOFs; MPC 1 for a real mode):", ""]
+    if modes.empty:
+        out.append("(none identified)\n")
+    else:
+        out.append(markdown(table(modes, [
+            ("model", "model", str), ("test", "test", str), ("freq_hz", "data Hz", sig),
+            ("freq_error_pct", "freq error [%]", pct),
+            ("damping_ratio", "data damping [%]", lambda v: pct(100 * v, 3)),
+            ("damping_error_pct", "damping error [%]", lambda v: pct(v, 1)),
+            ("mac", "MAC", lambda v: f"{v:.4f}"), ("mpc", "data MPC", lambda v: f"{v:.4f}")])))
+    if "modes" in figures:
+        out += ["", f"![paired modes]({figures['modes']})"]
+    pairs = diag.to_pandas("pairs")
+    if not pairs.empty:
+        out += ["", "Pairs that should agree (same channels in two tests: level dependence "
+                "or drift; reciprocal pairs), their difference over its noise:", ""]
+        out.append(markdown(table(pairs, [
+            ("kind", "kind", str), ("first", "first", str), ("second", "second", str),
+            ("reduced_chi2", "reduced chi2", sig),
+            ("relative_difference", "difference [%]", lambda v: pct(100 * v)),
+            ("n_lines", "lines", lambda v: str(int(v)))])))
+    for role, name in figures.items():
+        if role.startswith("frf"):
+            out += ["", f"![FRF, {role[4:]}]({name})"]
+    return "\n".join(out) + "\n"
+
+
+def _row(res) -> dict:
+    return {"FRF error [%]": pct(100 * res.frf_error), "reduced chi2": sig(res.reduced_chi2),
+            "phase-slope delay [ms]": sig(1e3 * res.delay_s, 3)}
+
+
+def write_diagnosis(diag, out_dir: str | Path, *, sources: tuple[str, ...] = ()) -> Path:
+    """Write ``diagnosis.md``, ``diagnosis.html`` and their figures into ``out_dir``.
+
+    Returns
+    -------
+    pathlib.Path
+        The HTML file.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    figures = {}
+    for k, t in enumerate(diag.tests):
+        figures[f"residual {t.name}"] = _save(diag.plot("residual", test=k),
+                                              out / f"residual_{_safe(t.name)}.png")
+        figures[f"frf {t.name}"] = _save(diag.plot("frf", test=k),
+                                         out / f"frf_{_safe(t.name)}.png")
+    if any(x.delta_bic == x.delta_bic for x in diag.tried):
+        figures["candidates"] = _save(diag.plot("candidates"), out / "candidates.png")
+    if diag.before.modes:
+        figures["modes"] = _save(diag.plot("modes"), out / "modes.png")
+    md = out / "diagnosis.md"
+    md.write_text(diagnosis_markdown(diag, figures, sources), encoding="utf-8")
+    return write_html(md)
