@@ -36,7 +36,7 @@ OPTIONS = {"station": "mid", "parameter": "E_pa"}
 
 MODERATE = {
     "material": {"E_rel": 0.03}, "geometry": {"t_rel": 0.02}, "parameter": {"rel": 0.05},
-    "discretization": {}, "element_physics": {}, "boundary": {"stiffness_rel": 0.5},
+    "discretization": {}, "element_physics": {"scale": 1.0}, "boundary": {"stiffness_rel": 0.5},
     "joint": {"stiffness_loss": 0.3, "damping_n_m_s_rad": 2.0}, "added_mass": {"mass_kg": 0.05},
     "sensor_mass": {"mass_kg": 0.02}, "aerodynamic": {"damping_n_s_m2": 0.5},
     "sag": {"scale": 200.0}, "actuator_dynamics": {"bandwidth_hz": 100.0},

@@ -85,14 +85,16 @@ class Candidate:
 
 
 def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,
-               f_ref_hz: float | None = None) -> dict[str, float]:
+               f_ref_hz: float | None = None, f_min_hz: float = 0.0) -> dict[str, float]:
     """The model quantities the fitted parameters' natural sizes are fractions of.
 
     ``mass``: the structure's translational mass (kg); ``stiffness``: mass times the
     squared reference angular frequency (N/m); ``damping``: ``2 omega_ref mass``
     (N s/m; 1 % of it damps the first mode by about 1 %); ``rotary_damping``: damping
     times the squared element length (N m s/rad); ``time``: ``1 / (2 pi f_max)`` (s);
-    ``unit``: 1. ``f_ref_hz`` defaults to the lowest elastic mode.
+    ``unit``: 1. ``f_ref_hz`` defaults to the lowest elastic mode at or above
+    ``f_min_hz`` (the compared band's low edge: a suspension mode below the band would
+    make the sizes of structural springs and dashpots far too small).
     """
     model = plant.build(nominal)
     labels = model.dof_labels
@@ -101,9 +103,10 @@ def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,
     z = np.array([lab.endswith(".z") for lab in labels], dtype=float)
     mass = max(float(v @ (model.M @ v)) for v in (x, y, z))
     if f_ref_hz is None:
-        modes = model.modes(min(12, model.n_dofs))
+        modes = model.modes(min(24, model.n_dofs))
         elastic = modes.freq_hz[~modes.rigid]
-        f_ref_hz = float(elastic[elastic > 0][0]) if np.any(elastic > 0) else f_max_hz
+        elastic = elastic[(elastic > 0) & (elastic >= f_min_hz)]
+        f_ref_hz = float(elastic[0]) if elastic.size else f_max_hz
     w = 2 * np.pi * f_ref_hz
     h = float(np.mean(np.diff(plant.node_x_m(nominal))))
     return {"mass": mass, "stiffness": mass * w * w, "damping": 2 * w * mass,

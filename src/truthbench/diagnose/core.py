@@ -54,6 +54,7 @@ from truthbench.diagnose.residual import (
     mpc,
     residual_views,
 )
+from truthbench.diagnose.screen import point_profiles
 from truthbench.errors import IdentifiabilityError, ModelError
 from truthbench.measure.frfdata import FRFData
 from truthbench.plants.base import Plant
@@ -267,7 +268,8 @@ def _diagnose(data, plant, nominal, parameters, settings):
             f"determine {len(declared)} declared parameters and a candidate; widen the band "
             f"or add data")
     f_max = max(float(t.freq_hz.max()) for t in tests)
-    refs = references(model_plant, nominal, f_max)
+    refs = references(model_plant, nominal, f_max,
+                      f_min_hz=min(float(t.freq_hz.min()) for t in tests))
     problem = Problem(model_plant, dict(nominal), ptests, values, weights, declared,
                       {k: refs["time"] for k in declared if k == "delay_s"},
                       sum(t.n_pairs for t in tests), None,
@@ -297,29 +299,31 @@ def _diagnose(data, plant, nominal, parameters, settings):
         base = signature_fit if step == 0 else current
         views = residual_views(tests, _parts(tests, base.model), len(base.names))
         results = {}
-        for drop, c, _ in screened:
+        for drop, c, _, _ in screened:
             start = _signature_start(c, views, tests, base.model)
             if start is not None:
                 results[c.label] = _refit(problem, current, accepted, c, drop, start, refs,
                                           n, step, tried, declared_start=base.theta)
-        for drop, c, guess in screened[:settings.refits]:
+        for drop, c, guess, adapt in screened[:settings.refits]:
             if c.label not in results:
                 results[c.label] = _refit(problem, current, accepted, c, drop, guess, refs,
-                                          n, step, tried)
+                                          n, step, tried,
+                                          declared_start=_adapted(current.theta, adapt))
         # locations next to the best located refit (a first-order score can rank a
         # mirror image or a neighbour first for a large change)
         best = max((r for r in results.values() if r and r[1].node is not None),
                    key=lambda r: r[0], default=None)
         if best is not None:
-            for drop, c, guess in screened:
+            for drop, c, guess, adapt in screened:
                 if (c.effect == best[1].effect and c.label not in results
                         and c.options.get("direction") == best[1].options.get("direction")
                         and abs(c.node - best[1].node) <= 2):
-                    results[c.label] = _refit(problem, current, accepted, c, drop, guess,
-                                              refs, n, step, tried)
-        screened_out = {c.label for _, c, _ in screened} - set(results)
+                    results[c.label] = _refit(
+                        problem, current, accepted, c, drop, guess, refs, n, step, tried,
+                        declared_start=_adapted(current.theta, adapt))
+        screened_out = {c.label for _, c, _, _ in screened} - set(results)
         tried.extend(Tried(step, c.label, c.effect, c.options, drop)
-                     for drop, c, _ in screened if c.label in screened_out)
+                     for drop, c, _, _ in screened if c.label in screened_out)
         ok = sorted((r for r in results.values()
                      if r and not r[3].startswith("unphysical") and r[0] > settings.threshold),
                     key=lambda r: -r[0])
@@ -357,6 +361,16 @@ def _diagnose(data, plant, nominal, parameters, settings):
                      tests, model_plant, dict(nominal), declared, n)
 
 
+def _adapted(theta: Mapping[str, float], step: Mapping[str, float]) -> dict[str, float]:
+    """``theta`` moved by a first-order step of its parameters, each change held within
+    half the parameter's size (a linearised step from a biased fit can overshoot)."""
+    out = dict(theta)
+    for k, d in step.items():
+        limit = 0.5 * abs(theta[k]) if theta[k] else abs(d)
+        out[k] = theta[k] + float(np.clip(d, -limit, limit))
+    return out
+
+
 def _signature_start(c: Candidate, views: Residual, tests, model) -> np.ndarray | None:
     """Starting values a residual signature gives a candidate, or None: the matched
     delay (the chi2 profile of a pure delay, searched from the phase slope) for a delay
@@ -378,11 +392,54 @@ def _signature_start(c: Candidate, views: Residual, tests, model) -> np.ndarray 
     return None
 
 
-def _screen(problem, current, cands, accepted, refs, step, tried):
-    """Every candidate's first-order chi2 drop, best first: (drop, candidate, guess)."""
+LINE_STEPS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0)
+"""Multiples of a candidate's first-order step tried by :func:`_line_search`."""
+
+
+def _line_search(problem, current, accepted, c, drop, guess, sizes):
+    """The chi2 drop along a candidate's first-order step, the model otherwise held:
+    ``chi2(start + a (guess - start))`` for the :data:`LINE_STEPS` (bounded below by
+    the parameters' minimum), which sees what a first-order score misses for a large
+    change (a strong dashpot flattens a peak, it does not shift it linearly). A step
+    clamped at a physical bound is replaced by the parameters' natural ``sizes`` (so a
+    stiff spring that the current fit half-absorbed is still tried). Returns (drop, best
+    point)."""
+    start = np.array([p.start for p in c.fitted])
+    step = guess - start
+    if not np.any(step):  # clamped at a bound: try it at its natural sizes instead
+        step = np.array([sizes[k] for k in c.keys()])
+    terms = tuple(a.term(start=_fitted_own(a, current.theta)) for a in accepted)
+    predict = problem.predict(terms + (c.term(),))
+    best = (drop, guess)
+    low = np.array([-np.inf if p.minimum is None else p.minimum for p in c.fitted])
+    for a in LINE_STEPS:
+        point = np.maximum(start + a * step, low)
+        theta = {**current.theta, **{k: float(v) for k, v in zip(c.keys(), point,
+                                                                  strict=True)}}
+        try:
+            chi2 = problem.chi2(np.asarray(predict(theta)))
+        except (ModelError, ValueError):
+            continue
+        if current.chi2 - chi2 > best[0]:
+            best = (current.chi2 - chi2, point)
+    return best
+
+
+def _screen(problem, current, cands, accepted, refs, step, tried, *, per_effect=3):
+    """Every candidate's chi2 drop, best first: (drop, candidate, guess). Point
+    attachments (springs, dashpots, masses) get their exact profile over a grid of
+    strengths (:func:`~.screen.point_profiles`); the others the first-order (score) drop,
+    and, for the ``per_effect`` best of each effect, the drop along that step
+    (:func:`_line_search`)."""
     out = []
-    for c in cands:
-        if any(c.label == a.label for a in accepted):
+    todo = [c for c in cands if not any(c.label == a.label for a in accepted)]
+    sizes = {k: v for c in todo for k, v in c.scales(refs).items()}
+    exact = point_profiles(problem, current, todo, sizes)
+    for c in todo:
+        if c.label in exact:  # point attachments: the exact profile over strengths
+            drop, strength, adapt = exact[c.label]
+            out.append((drop, c, np.array([strength]), dict(zip(current.names, adapt,
+                                                               strict=True))))
             continue
         scales = c.scales(refs)
         pc = replace(problem, scales={**problem.scales, **scales})
@@ -394,8 +451,17 @@ def _screen(problem, current, cands, accepted, refs, step, tried):
             continue
         start = np.array([p.start for p in c.fitted])
         drop, guess = score(current, cols, start, [p.minimum for p in c.fitted])
-        out.append((drop, c, guess))
-    return sorted(out, key=lambda s: -s[0])
+        out.append((drop, c, guess, {}))
+    out.sort(key=lambda s: -s[0])
+    lined, count = [], {}
+    for drop, c, guess, adapt in out:
+        count[c.effect] = count.get(c.effect, 0) + 1
+        if count[c.effect] <= per_effect and c.label not in exact:
+            pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
+            drop, guess = _line_search(pc, current, accepted, c, drop, guess,
+                                       c.scales(refs))
+        lined.append((drop, c, guess, adapt))
+    return sorted(lined, key=lambda s: -s[0])
 
 
 def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
@@ -404,10 +470,13 @@ def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
     (delta BIC, candidate, fit, status) or None when it fails (recorded in ``tried``).
     The parameters start at ``current`` (or ``declared_start``), the candidate's at
     ``guess``."""
-    scales = c.scales(refs)
+    start = {p.name: float(v) for p, v in zip(c.fitted, guess, strict=True)}
+    # steps and trust region in units of the larger of the natural size and the start
+    # (a strong effect found by the screening is many natural sizes away from zero)
+    scales = {k: max(v, abs(start[k.rsplit(".", 1)[1]]))
+              for k, v in c.scales(refs).items()}
     pc = replace(problem, scales={**problem.scales, **scales})
     terms = tuple(a.term(start=_fitted_own(a, current.theta)) for a in accepted)
-    start = {p.name: float(v) for p, v in zip(c.fitted, guess, strict=True)}
     theta = current.theta if declared_start is None else declared_start
     try:
         cf = fit(pc, terms + (c.term(start=start),), start=theta, quick=True)

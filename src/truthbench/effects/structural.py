@@ -119,13 +119,16 @@ class Discretization(Effect):
 class ElementPhysics(Effect):
     name: ClassVar[str] = "element_physics"
     description: ClassVar[str] = ("the truth has shear deformation and rotary inertia "
-                                  "(Timoshenko); the model is Euler-Bernoulli")
-    params: ClassVar = ()
-    neutral: ClassVar = None
-    options: ClassVar = {}
+                                  "(Timoshenko); the model is Euler-Bernoulli. `scale` "
+                                  "multiplies both (1: the Timoshenko beam of the section)")
+    params: ClassVar = (EffectParam("scale", 1.0, "fraction of the Timoshenko shear "
+                                    "deformation and rotary inertia", 0.0),)
+    neutral: ClassVar = {"scale": 0.0}
+    diagnosis: ClassVar = Diagnosable((FitParam("scale", "unit", 0.5, minimum=0.0),))
 
     def contribute(self, values, options, setup):
-        setup.plant = replace(setup.plant, timoshenko=True)
+        if values["scale"] != 0:
+            setup.plant = replace(setup.plant, timoshenko=float(values["scale"]))
 
 
 @register_effect

@@ -161,7 +161,7 @@ def assemble(
     mesh: BeamMesh,
     properties: Mapping[str, Mapping[str, float]],
     *,
-    timoshenko: bool = False,
+    timoshenko: bool | float = False,
     sag_angles_rad: np.ndarray | None = None,
     up_vector: np.ndarray | None = None,
 ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
@@ -174,8 +174,9 @@ def assemble(
         For every group, the keys of :data:`MATERIAL_KEYS` (E_pa, nu, rho_kg_m3) and the
         section: ``"section"`` (a section object or name) with the section's dimensions,
         or, for a tube, just ``r_m`` and ``t_m`` (see :func:`group_section`).
-    timoshenko : bool
-        Use the shear-deformable element with rotary inertia.
+    timoshenko : bool or float
+        Use the shear-deformable element with rotary inertia (a number scales both, see
+        :func:`~truthbench.fe.beam.element_matrices`).
     sag_angles_rad : ndarray, shape (n_elements,), optional
         Local sag angle of each element; the element matrices are rotated by
         :func:`~truthbench.fe.beam.sag_rotation` (Eq. 10.5-10.6) in their x-z plane.

@@ -403,7 +403,7 @@ def element_matrices(
     section: Section,
     L_m: float,
     *,
-    timoshenko: bool = False,
+    timoshenko: bool | float = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Local stiffness and consistent mass of one beam element.
 
@@ -420,9 +420,12 @@ def element_matrices(
         :class:`CircularBarSection`, or any object with the :class:`Section` properties).
     L_m : float
         Element length, m.
-    timoshenko : bool, optional
+    timoshenko : bool or float, optional
         Add shear deformation (shear coefficient ``section.shear_coefficient(nu)``) and
-        rotary inertia (default Euler-Bernoulli, the chapter's element).
+        rotary inertia (default Euler-Bernoulli, the chapter's element). A number scales
+        both (the shear parameter ``phi`` and the rotary inertia per length): 1 (True)
+        is the Timoshenko beam, 0 (False) Euler-Bernoulli, values between a partial
+        correction (what a diagnosis fits when it is unsure of the slenderness).
 
     Returns
     -------
@@ -457,14 +460,18 @@ def element_matrices(
         k[ix] = stiff * lin_k
         m[ix] = inertia * lin_m
 
-    kappa = section.shear_coefficient(nu) if timoshenko else 0.0
+    scale = float(timoshenko)
+    if not (np.isfinite(scale) and scale >= 0):
+        raise ValueError(f"element parameter 'timoshenko' must be a boolean or a scale "
+                         f">= 0; got {timoshenko!r}")
+    kappa = section.shear_coefficient(nu) if scale else 0.0
 
     def plane(I):
         phi = 0.0
         rhoI = 0.0
-        if timoshenko:
-            phi = 12.0 * E_pa * I / (kappa * G * A * L**2)
-            rhoI = rho_kg_m3 * I
+        if scale:
+            phi = scale * (12.0 * E_pa * I / (kappa * G * A * L**2))
+            rhoI = scale * (rho_kg_m3 * I)
         return _bending_blocks(E_pa * I, rho_kg_m3 * A, L, rhoI, phi)
 
     kb_z, mb_z = plane(Iz)

@@ -145,8 +145,9 @@ class Plant:
         may differ per group).
     stations : mapping of str -> float
         Extra named stations, fraction of the element count (must fall on a node).
-    timoshenko : bool
-        Shear-deformable elements with rotary inertia.
+    timoshenko : bool or float
+        Shear-deformable elements with rotary inertia (a number scales both:
+        :func:`~truthbench.fe.beam.element_matrices`).
     section : str
         Cross-section, one of :data:`~truthbench.fe.beam.SECTIONS` (default "tube").
     material : str
@@ -157,7 +158,7 @@ class Plant:
     n_elements: int = 20
     n_groups: int = 1
     stations: Mapping[str, float] = field(default_factory=dict)
-    timoshenko: bool = False
+    timoshenko: bool | float = False
     section: str = DEFAULT_SECTION
     material: str = DEFAULT_MATERIAL
 
