@@ -100,6 +100,10 @@ def h1_sigma(H: np.ndarray, coherence: np.ndarray | None, n_averages: int | None
         "coherence"
 
 
+def _xyz(v) -> str:
+    return "(" + ", ".join(f"{float(x):.6g}" for x in v) + ")"
+
+
 def _place(ch: Channel, plant: Plant, xyz: np.ndarray, tolerance_m: float,
            point_map: Mapping[int, float], source: str) -> tuple[str, int | None]:
     """(station, node or None) of one channel."""
@@ -110,8 +114,8 @@ def _place(ch: Channel, plant: Plant, xyz: np.ndarray, tolerance_m: float,
         how = f"point {ch.point} mapped to x = {target[0]:g} m"
     elif ch.coordinates_m is not None:
         target = np.asarray(ch.coordinates_m, dtype=float)
-        how = f"point {ch.point} at {tuple(round(v, 6) for v in target)} m" \
-            if ch.point is not None else f"coordinates {tuple(target)} m"
+        how = (f"point {ch.point} at {_xyz(target)} m" if ch.point is not None
+               else f"coordinates {_xyz(target)} m")
     else:
         raise DataFormatError(
             f"{source}: channel {ch.label!r} has no station, no coordinates and no map "
@@ -122,8 +126,8 @@ def _place(ch: Channel, plant: Plant, xyz: np.ndarray, tolerance_m: float,
     if dist[node] > tolerance_m:
         raise DataFormatError(
             f"{source}: channel {ch.label!r} ({how}) matches no node of the model within "
-            f"{tolerance_m:g} m: the nearest is node {node} at "
-            f"{tuple(round(v, 6) for v in xyz[node])} m, {dist[node]:.4g} m away. Check "
+            f"{tolerance_m:g} m: the nearest is node {node} at {_xyz(xyz[node])} m, "
+            f"{dist[node]:.4g} m away. Check "
             f"the coordinates' frame and units, refine the mesh, or map the point")
     return f"n{node}", node
 
