@@ -24,7 +24,10 @@ def _cmd_export(args) -> int:
     if args.test:
         options["tests"] = args.test
     frfs = load_frf(args.results, **options)
-    path = write_uff(out, frfs, binary=args.binary)
+    try:  # checked before anything is written (no partial file)
+        path = write_uff(out, frfs, binary=args.binary)
+    except ValueError as exc:  # e.g. non-finite FRF lines UFF cannot hold
+        raise DataFormatError(f"{args.results} -> {out}: {exc}") from None
     points = number_points(frfs)
     n_frf = sum(d.H.shape[1] * d.H.shape[2] for d in frfs)
     n_coh = sum(d.H.shape[1] * d.H.shape[2] for d in frfs if d.coherence is not None)

@@ -41,7 +41,7 @@ def _cmd_identify(args) -> int:
         for note in data.notes:
             print(f"  {note}")
         if d.band_rule:
-            print(f"  band: {d.band_rule}")
+            print(f"  band rule: {d.band_rule}")
         if d.n_modes == 0:
             print("  no mode identified in the band")
             continue

@@ -14,7 +14,7 @@ def _cmd_simulate(args) -> int:
     from truthbench.campaign.spec import load_campaign
     from truthbench.campaign.store import write_test_record
     from truthbench.effects import effect_from_inject
-    from truthbench.errors import CampaignError
+    from truthbench.errors import CampaignError, ModelError
 
     # every input is checked before any work: the output name, the campaign, the test
     # index, the injected effects
@@ -30,6 +30,14 @@ def _cmd_simulate(args) -> int:
         raise CampaignError(f"argument --test: expected a test index 0..{n_tests - 1} of "
                             f"{args.campaign} ({names}); got {args.test}")
     extra = [effect_from_inject(text) for text in args.inject]
+    plant = spec.make_plant()
+    for text, eff in zip(args.inject, extra, strict=True):
+        if "station" in eff.options:
+            try:
+                plant.station_node(eff.options["station"])
+            except ModelError as exc:
+                raise CampaignError(f"--inject {text!r}: option 'station': {exc}; got "
+                                    f"{eff.options['station']!r}") from None
     seed = spec.campaign.seed if args.seed is None else args.seed
     record = simulate_one(spec, args.trial, args.test, seed, extra)
     path = write_test_record(record, out, spec=spec, seed=seed, trial=args.trial,

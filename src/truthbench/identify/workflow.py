@@ -295,8 +295,7 @@ def default_band(data: FRFData) -> tuple[float, float, str]:
     if data.band_hz is not None:
         lo, hi = data.band_hz
         lo, hi = max(lo, float(positive[0])), min(hi, float(f[-1]))
-        return lo, hi, (f"the data's excited band {data.band_hz[0]:.6g}-"
-                        f"{data.band_hz[1]:.6g} Hz")
+        return lo, hi, "the data's excited band"
     if data.coherence is not None:
         g = np.asarray(data.coherence).reshape(f.size, -1)
         with np.errstate(invalid="ignore"):
@@ -307,8 +306,8 @@ def default_band(data: FRFData) -> tuple[float, float, str]:
             avg = (f"{data.n_averages} averages" if data.n_averages
                    else "averages unknown")
             return float(f[hit[0]]), float(f[hit[-1]]), (
-                f"lines whose coherence reaches {level:.3g} ({avg}, {positive.size} lines, "
-                f"{g.shape[1]} channels), {f[hit[0]]:.6g}-{f[hit[-1]]:.6g} Hz")
+                f"the lines whose coherence reaches {level:.3g} ({avg}, {positive.size} "
+                f"lines, {g.shape[1]} channels)")
     return float(positive[0]), float(f[-1]), (
         "every line above 0 Hz: the data record no excited band and no coherence; give "
         "a band (--band LO HI) if the excitation covered less")
