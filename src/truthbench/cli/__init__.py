@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     except (TruthbenchError, FileNotFoundError) as exc:
         print(f"truthbench {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except (IsADirectoryError, NotADirectoryError, PermissionError) as exc:
+    except (IsADirectoryError, NotADirectoryError, FileExistsError, PermissionError) as exc:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"truthbench {args.command}: error: {where}{exc.strerror or exc}",
               file=sys.stderr)

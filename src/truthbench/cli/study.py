@@ -81,8 +81,9 @@ def register(subparsers) -> None:
     """
     st = subparsers.add_parser(
         "study", help="the chapter's numerical studies (Figures 10.2 and 10.3)",
-        description="The chapter's numerical studies: 'discretization' (Figure 10.2) and "
-                    "'damping-smoothing' (Figure 10.3).",
+        description="The numerical studies of \"Modeling: Limitations and Realities\", a "
+                    "draft textbook chapter of 1998: 'discretization' (its Figure 10.2) and "
+                    "'damping-smoothing' (its Figure 10.3).",
         epilog="examples:\n  truthbench study discretization\n"
                "  truthbench study damping-smoothing --out results/studies")
     sts = st.add_subparsers(dest="study", required=True)

@@ -696,10 +696,11 @@ def mode_significance(freq_hz, frf, fit: LSFDResult, *, lower_residual: bool = T
 
     A mode is kept when it explains at least as much as remains
     (:data:`SIGNIFICANCE_MIN` = 1), the rule of the coherence band (0.5: as much
-    coherent as incoherent power) applied to the fit. On the shipped LADISK record the
-    poles that stabilize on leakage or noise beside the strong modes explain 0.65 or
-    less of what remains (some make their band's fit worse, < 0), its resonances 59 or
-    more; the weakest mode of the hub-beam campaign tests explains 7.
+    coherent as incoherent power) applied to the fit. On the shipped LADISK record, over
+    the orders 20 to 80, the poles that stabilize on leakage or noise beside the strong
+    modes explain at most 0.67 of what remains (many make their band's fit worse, < 0),
+    its resonances 48 or more; the weakest mode of the hub-beam campaign tests explains
+    7.
 
     Parameters
     ----------
