@@ -662,6 +662,7 @@ def _check_references(spec: CampaignSpec) -> None:
                 raise CampaignError(f"{src}: key '{where}.station': effect {eff.name!r}: "
                                     f"{exc}; got {eff.options['station']!r}") from None
     _check_geometry_effects(spec, plant)
+    check_refinement(spec, effects)
     from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater
 
     for key in spec.update.parameters:
@@ -743,6 +744,36 @@ def _check_references(spec: CampaignSpec) -> None:
                 f"{src}: key 'update.parameters': the finite-difference method needs more "
                 f"SISO transfer functions than parameters (m r > p); the tests give "
                 f"m r = {pairs} for p = {p}. Add sensors or tests, or update fewer parameters.")
+
+
+def check_refinement(spec: CampaignSpec, effects, source: str | None = None) -> None:
+    """A ``discretization`` effect meshes the truth ``refine`` times finer: an integer
+    >= 1 whose mesh stays within :data:`MAX_ELEMENTS` (the truth's eigen solve is the
+    model's, refined).
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    effects : iterable of (str, EffectSpec)
+        Where each effect was given (a key, or ``--inject ...``) and the effect.
+    source : str, optional
+        The file or option named first in messages (default ``spec.source``).
+    """
+    src = spec.source if source is None else source
+    n = spec.plant.n_elements
+    for where, eff in effects:
+        if eff.name != "discretization":
+            continue
+        k = eff.options.get("refine")
+        if isinstance(k, bool) or not isinstance(k, int | float) or k != int(k) or k < 1:
+            raise CampaignError(f"{src}: key '{where}.refine': expected an integer >= 1 "
+                                f"(the truth's elements per model element); got {k!r}")
+        k = int(k)
+        if n * k > MAX_ELEMENTS:
+            raise CampaignError(
+                f"{src}: key '{where}.refine': the truth would have {n} x {k} = "
+                f"{n * k} elements; expected at most {MAX_ELEMENTS} (what the eigensolver "
+                f"handles in about a second), so refine at most {MAX_ELEMENTS // n}")
 
 
 def _check_channels(spec: CampaignSpec) -> None:
@@ -837,8 +868,10 @@ def _check_memory(spec: CampaignSpec, plant) -> None:
     available = available_memory_bytes()
     if available is None:
         return
-    n_dofs = 6 * (spec.plant.n_elements + 1)
     for j, t in enumerate(spec.tests):
+        refine = max([int(e.options.get("refine", 1)) for e in spec.truth_effects()
+                      + spec.test_effects(j) if e.name == "discretization"] or [1])
+        n_dofs = 6 * (spec.plant.n_elements * refine + 1)  # the truth's mesh
         need, what = memory_estimate_bytes(spec, j, n_dofs)
         if need > available:
             raise CampaignError(

@@ -11,7 +11,7 @@ OUT_SUFFIXES = (".h5", ".hdf5")
 def _cmd_simulate(args) -> int:
     from truthbench._validation import check_output_file
     from truthbench.campaign.runner import simulate_one
-    from truthbench.campaign.spec import load_campaign
+    from truthbench.campaign.spec import check_refinement, load_campaign
     from truthbench.campaign.store import write_test_record
     from truthbench.effects import effect_from_inject
     from truthbench.errors import CampaignError, ModelError
@@ -30,6 +30,7 @@ def _cmd_simulate(args) -> int:
         raise CampaignError(f"argument --test: expected a test index 0..{n_tests - 1} of "
                             f"{args.campaign} ({names}); got {args.test}")
     extra = [effect_from_inject(text) for text in args.inject]
+    check_refinement(spec, [("inject", e) for e in extra], source="--inject")
     plant = spec.make_plant()
     for text, eff in zip(args.inject, extra, strict=True):
         if "station" in eff.options:
