@@ -126,7 +126,7 @@ def test_simulate_bad_input(tmp_path, capsys):
     assert main(["simulate", str(camp), "--out", out, "--inject", "gremlin:x=1"]) == 2
     assert "unknown effect 'gremlin'" in capsys.readouterr().err
     assert main(["simulate", str(camp), "--out", out, "--test", "5"]) == 2
-    assert "test index 5 does not exist" in capsys.readouterr().err
+    assert "argument --test: expected a test index 0..1" in capsys.readouterr().err
 
 
 def test_place_sensors(capsys):

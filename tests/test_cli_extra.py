@@ -1,12 +1,11 @@
 """The extra subcommands: study discretization, study damping-smoothing, identify, export.
 
-The commands are registered on a parser built here the way ``truthbench.cli`` builds its
-own, so the tests do not depend on the wiring in cli.py.
+The commands run through :func:`truthbench.cli.main`, which answers their errors with a
+message and exit code 2.
 """
 
 from __future__ import annotations
 
-import argparse
 import importlib.resources
 import json
 import subprocess
@@ -17,23 +16,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from truthbench.cli import export, identify, main, study
-
-
-def register(sub):
-    study.register(sub)
-    identify.register(sub)
-    export.register(sub)
+from truthbench.cli import main
 
 SHIPPED_LVM = Path(str(importlib.resources.files("truthbench").joinpath(
     "data/ladisk_beam_impact/acceleration.lvm")))
 
 
 def run(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="truthbench")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    return args.func(args)
+    """Through :func:`truthbench.cli.main`: a command's errors are answered there."""
+    return main(argv)
 
 
 def test_import_is_light_and_help_is_fast():
@@ -186,3 +177,72 @@ def test_export_errors_are_messages(results_h5, tmp_path, capsys):
     assert main(["export", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "x.uff")]) == 2
     assert "missing.h5: no such data file" in capsys.readouterr().err
     assert not (tmp_path / "x.uff").exists()
+
+
+def test_a_uff_without_band_identifies_like_the_results_file(results_h5, tmp_path, capsys):
+    """A UFF from another tool records no excited band: the band comes from the
+    coherence, and the modes and shapes are those of the results file (which knows its
+    band), not a fit of the noise outside the excited band."""
+    import re
+
+    from truthbench.identify import mac
+
+    out = tmp_path / "all.uff"
+    assert main(["export", str(results_h5), "--out", str(out)]) == 0
+    capsys.readouterr()
+    foreign = tmp_path / "foreign.uff"
+    foreign.write_text(re.sub(r"band_hz=\S+", "NONE", out.read_text()))
+    assert "band_hz" not in foreign.read_text()
+    reports = {}
+    for path in (results_h5, foreign):
+        assert main(["identify", str(path), "--json"]) == 0
+        reports[path] = json.loads(capsys.readouterr().out)["datasets"]
+    for ours, theirs in zip(reports[results_h5], reports[foreign], strict=True):
+        assert ours["band_rule"] == "the data's excited band"
+        assert theirs["band_rule"].startswith("the lines whose coherence reaches")
+        lo, hi = theirs["band_hz"]
+        assert 2.0 <= lo < 10.0 and 390.0 < hi <= 402.0  # the excited band, 2-400 Hz
+        f1 = [m["freq_hz"] for m in ours["modes"]]
+        f2 = [m["freq_hz"] for m in theirs["modes"]]
+        np.testing.assert_allclose(f2, f1, rtol=1e-3)
+        s1 = np.array([m["shape"] for m in ours["modes"]]).T
+        s2 = np.array([m["shape"] for m in theirs["modes"]]).T
+        assert np.all(np.diag(mac(s1, s2)) > 0.999)
+
+
+def test_json_is_strict(capsys):
+    """No NaN or Infinity tokens: a rigid-body mode's damping is null."""
+    root = Path(__file__).resolve().parents[1]
+
+    def refuse(token):
+        raise AssertionError(f"non-standard JSON token {token}")
+
+    assert main(["modes", str(root / "campaigns" / "quickstart.toml"), "--json",
+                 "--count", "6"]) == 0
+    tables = json.loads(capsys.readouterr().out, parse_constant=refuse)
+    assert tables["nominal"][0]["damping_ratio"] is None
+    assert main(["identify", str(SHIPPED_LVM), "--json"]) == 0
+    json.loads(capsys.readouterr().out, parse_constant=refuse)
+
+
+def test_every_help_shows_defaults_and_an_example(capsys):
+    from truthbench.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if hasattr(a, "choices") and a.choices)
+    commands = dict(sub.choices)
+    study = next(a for a in commands["study"]._actions if hasattr(a, "choices") and a.choices)
+    commands.update({f"study {k}": v for k, v in study.choices.items()})
+    assert set(commands) >= {"run", "report", "simulate", "identify", "export", "study",
+                             "place-sensors", "modes", "study discretization",
+                             "study damping-smoothing"}
+    for name, p in commands.items():
+        text = p.format_help()
+        assert "example" in text and "truthbench " in text.split("example")[-1], name
+        # every option with a default shows it (unless its help says it in words)
+        for action in p._actions:
+            if (action.option_strings and action.dest != "help"
+                    and action.default not in (None, False)
+                    and "default" not in (action.help or "").lower()):
+                assert f"(default: {action.default})" in " ".join(text.split()), (name,
+                                                                                  action.dest)

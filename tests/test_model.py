@@ -215,3 +215,63 @@ def test_mode_tolerance_leaves_out_only_what_the_channels_barely_see():
     bound = modes.n_modes * 1e-12 * np.abs(full).max()
     assert np.abs(model.frf(f, modes=modes, mode_tolerance=1e-12) - full).max() <= bound
     assert np.abs(model.frf(f, modes=modes, mode_tolerance=0.5) - full).max() > 1e3 * bound
+
+
+def _beam_on_springs(lateral=0.0, axial=0.0):
+    plant = make_plant("free_free_beam", n_elements=10)
+    return plant.build({"suspension_lateral_stiffness_n_m": lateral,
+                        "suspension_axial_stiffness_n_m": axial})
+
+
+def test_modal_table_names_rigid_and_suspension_modes():
+    from truthbench.model import modal_table
+
+    # vertical springs only: four rigid-body modes, then bounce and pitch
+    model = _beam_on_springs()
+    rows = modal_table(model, model.modes(8))
+    assert [r["shape"] for r in rows[:6]] == [
+        "rigid-body translation x", "rigid-body translation y", "rigid-body rotation about x",
+        "rigid-body rotation about z", "suspension bounce (translation z)",
+        "suspension pitch (rotation about y)"]
+    assert [r["mode"] for r in rows] == list(range(1, 9))
+    assert rows[6]["shape"].startswith("bending") and rows[6]["shape"].endswith("2 nodes")
+    # springs in every direction the plant has: surge, sway and yaw too, no rigid mode
+    # but the roll about the beam axis (nothing resists it)
+    model = _beam_on_springs(lateral=150.0, axial=100.0)
+    shapes = [r["shape"] for r in modal_table(model, model.modes(6))]
+    assert shapes == ["rigid-body rotation about x", "suspension surge (translation x)",
+                      "suspension sway (translation y)", "suspension yaw (rotation about z)",
+                      "suspension bounce (translation z)", "suspension pitch (rotation about y)"]
+
+
+def test_modal_table_does_not_depend_on_the_rigid_basis():
+    """The eigensolver may return any basis of the 0 Hz subspace: the table is the same."""
+    from dataclasses import replace
+
+    from truthbench.model import modal_table
+
+    model = _beam_on_springs()
+    md = model.modes(10)
+    rigid = np.flatnonzero(md.rigid)
+    rng = np.random.default_rng(1)
+    q, _ = np.linalg.qr(rng.standard_normal((rigid.size, rigid.size)))
+    shapes = md.shapes.copy()
+    shapes[:, rigid] = md.shapes[:, rigid] @ q  # still mass-orthonormal
+    turned = replace(md, shapes=shapes)
+    def key(rows):  # NaN damping of the rigid modes compares unequal to itself
+        return [(r["mode"], r["freq_hz"], repr(r["damping_ratio"]), r["shape"]) for r in rows]
+
+    assert key(modal_table(model, turned)) == key(modal_table(model, md))
+
+
+def test_modal_table_hub_beam_cantilever_modes_are_not_suspension_modes():
+    from truthbench.model import modal_table
+
+    plant = make_plant("hub_beam", n_elements=10)
+    model = plant.build({})
+    rows = modal_table(model, model.modes(5))
+    assert rows[0]["shape"] == "rigid-body rotation about z"
+    # the first out-of-plane bending resembles a rotation about the root, but its rigid
+    # part strains the clamp (Rayleigh ratio far above 2): it is a bending mode
+    assert not any(r["shape"].startswith("suspension") for r in rows)
+    assert rows[1]["shape"] == "bending z, 0 nodes"

@@ -356,35 +356,207 @@ def _complex_mode_frf(omega, Xi, Bm, Cm, s):
     return np.einsum("om,fmi->foi", Cm, X)
 
 
+#: The six rigid-body motions, in the order :func:`modal_table` lists rigid-body modes.
+RIGID_MOTIONS = ("translation x", "translation y", "translation z",
+                 "rotation about x", "rotation about y", "rotation about z")
+
+#: Names of a rigid-body motion lifted to a low frequency by soft supports (z vertical,
+#: x along the beam).
+SUSPENSION_NAMES = {"translation x": "surge", "translation y": "sway",
+                    "translation z": "bounce", "rotation about x": "roll",
+                    "rotation about y": "pitch", "rotation about z": "yaw"}
+
+#: An elastic mode is a suspension mode when its rigid-body part carries more than this
+#: share of its kinetic energy ...
+SUSPENSION_RIGID_SHARE = 0.5
+#: ... and that part alone, as a Ritz vector, has at most this ratio of the mode's
+#: omega^2: the supports, not the structure's own stiffness, set the frequency.
+SUSPENSION_RAYLEIGH_RATIO = 2.0
+
+
+def _dof_nodes(model: StructuralModel):
+    """Node index and direction index (0..5: x, y, z, rx, ry, rz) of every DOF, from the
+    ``n<node>.<dir>`` labels; None when a label has another form."""
+    dirs = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
+    nodes, kinds = [], []
+    for lab in model.dof_labels:
+        head, _, d = lab.rpartition(".")
+        if not head.startswith("n") or not head[1:].isdigit() or d not in dirs:
+            return None
+        nodes.append(int(head[1:]))
+        kinds.append(dirs[d])
+    return np.asarray(nodes), np.asarray(kinds)
+
+
+def rigid_body_motions(model: StructuralModel) -> np.ndarray | None:
+    """The six unit rigid-body motions of the model's DOFs, about its centre of mass.
+
+    Column ``k`` is :data:`RIGID_MOTIONS` ``[k]``: a unit translation, or a unit rotation
+    (rad) about an axis through the centre of mass (mass-weighted mean node position
+    over the translational DOFs), each scaled to unit kinetic energy
+    (``r^T M r = 1``; a motion the DOFs cannot show is a zero column).
+
+    Returns
+    -------
+    ndarray, shape (n_dofs, 6), or None
+        None without node positions or with DOF labels not of the form ``n<node>.<dir>``.
+    """
+    if model.node_positions_m is None:
+        return None
+    parsed = _dof_nodes(model)
+    if parsed is None:
+        return None
+    nodes, kinds = parsed
+    pos = np.asarray(model.node_positions_m, dtype=float)[nodes]  # (n_dofs, 3)
+    m = model.M.diagonal()
+    trans = kinds < 3
+    weight = np.where(trans, np.maximum(m, 0.0), 0.0)
+    centre = (weight @ pos) / weight.sum() if weight.sum() > 0 else np.zeros(3)
+    r = pos - centre
+    R = np.zeros((model.n_dofs, 6))
+    for a in range(3):
+        R[:, a] = trans & (kinds == a)
+        e = np.zeros(3)
+        e[a] = 1.0
+        u = np.cross(e, r)  # displacement of each DOF's node for a unit rotation about a
+        R[:, 3 + a] = np.where(trans, u[np.arange(model.n_dofs), np.minimum(kinds, 2)],
+                               (kinds == 3 + a).astype(float))
+    norm = np.sqrt(np.einsum("ij,ij->j", R, model.M @ R))
+    return R / np.where(norm > 0, norm, 1.0)
+
+
+def _rigid_labels(model: StructuralModel, R: np.ndarray, Phi: np.ndarray) -> list[str]:
+    """One motion of :data:`RIGID_MOTIONS` per column of the rigid-body subspace
+    ``Phi`` (n, k), in that order: the pivots of the subspace's coordinates in the
+    rigid motions, rotations first (a rotation about an axis off the centre of mass is
+    a rotation plus a translation; the rotation names it)."""
+    G = R.T @ (model.M @ R)
+    C = np.linalg.lstsq(G, R.T @ (model.M @ Phi), rcond=None)[0].T  # (k, 6)
+    C = C.copy()
+    labels = []
+    rows = list(range(C.shape[0]))
+    scale = np.abs(C).max() if C.size else 1.0
+    for col in (3, 4, 5, 0, 1, 2):
+        if not rows:
+            break
+        piv = max(rows, key=lambda i: abs(C[i, col]))
+        if abs(C[piv, col]) <= 1e-6 * scale:
+            continue
+        C[piv] /= C[piv, col]
+        for i in range(C.shape[0]):
+            if i != piv:
+                C[i] -= C[i, col] * C[piv]
+        rows.remove(piv)
+        labels.append(RIGID_MOTIONS[col])
+    labels.sort(key=RIGID_MOTIONS.index)
+    return labels + ["mixed"] * len(rows)
+
+
 def modal_table(model: StructuralModel, modes: Modes) -> list[dict]:
     """Frequency, damping ratio and a short shape description of every mode.
 
     Damping ratios come from the complex poles of the modal first-order form (so they
     include non-proportional physical damping), paired to the elastic real modes by an
     assignment on frequency distance (real poles, e.g. a rigid mode with a dashpot, are
-    left out). The description names the dominant motion by kinetic-energy share
-    (axial, bending y, bending z, torsion) and counts the sign changes of the dominant
-    translation along the structure (nodes).
+    left out).
+
+    Descriptions:
+
+    * rigid-body modes (0 Hz) by their motion, ``"rigid-body translation x"``,
+      ``"rigid-body rotation about z"``: the rigid-body subspace is expressed in the six
+      rigid motions about the centre of mass and each mode named by a pivot, rotations
+      first (:data:`RIGID_MOTIONS`); their order is that of :data:`RIGID_MOTIONS`
+      whatever basis the eigensolver returned for the degenerate subspace;
+    * suspension modes, a rigid-body motion lifted by soft supports: the mode's
+      mass-orthogonal projection on the rigid motions carries more than
+      :data:`SUSPENSION_RIGID_SHARE` of its kinetic energy and, as a Ritz vector, has at
+      most :data:`SUSPENSION_RAYLEIGH_RATIO` times the mode's omega^2 (an elastic mode
+      that merely resembles a rotation, such as a cantilever's first bending, fails this:
+      its rigid part strains the clamp). Named by the motion with most of that part's
+      kinetic energy: ``"suspension bounce (translation z)"``, ``"suspension pitch
+      (rotation about y)"``, ``"suspension sway (translation y)"``, ... (z vertical, x
+      along the beam; :data:`SUSPENSION_NAMES`);
+    * every other mode by its dominant motion by kinetic-energy share (axial, bending
+      y, bending z, torsion) and the sign changes of that translation along the
+      structure (nodes): ``"bending z, 2 nodes"``.
+
+    Rows are in order of frequency; modes of equal frequency (to 1e-9 relative, or all
+    rigid) are ordered by description, so the table does not change from run to run.
+    Models without node positions get the kinetic-energy descriptions only.
+
+    Returns
+    -------
+    list of dict
+        ``mode`` (1-based, in the table's order), ``freq_hz``, ``damping_ratio`` (NaN for
+        rigid-body modes), ``shape``.
     """
     m = modes.n_modes
     zeta = complex_modes(model, modes).damping_ratio
     dirs = np.array([lab.rsplit(".", 1)[-1] if "." in lab else "" for lab in model.dof_labels])
     Mdiag = model.M.diagonal()
     names = {"x": "axial", "y": "bending y", "z": "bending z", "rx": "torsion"}
+    R_all = rigid_body_motions(model)
+    R, motions, rigid_names = None, [], None
+    if R_all is not None:
+        keep = np.linalg.norm(R_all, axis=0) > 0
+        R = R_all[:, keep]
+        motions = [mo for mo, k in zip(RIGID_MOTIONS, keep, strict=True) if k]
+        rigid = np.flatnonzero(modes.rigid)
+        if rigid.size:
+            rigid_names = iter(_rigid_labels(model, R_all, modes.shapes[:, rigid]))
     rows = []
     for i in range(m):
         phi = modes.shapes[:, i]
-        energy = {d: float(np.sum(Mdiag[dirs == d] * phi[dirs == d] ** 2)) for d in names}
-        dom = max(energy, key=energy.get)
-        comp = phi[dirs == dom]
-        big = np.abs(comp) > 1e-3 * np.abs(comp).max() if comp.size else comp
-        nodes = int(np.sum(np.diff(np.sign(comp[big])) != 0)) if comp.size else 0
-        kind = names[dom]
-        desc = f"rigid-body ({kind})" if modes.rigid[i] else f"{kind}, {nodes} node" + (
-            "s" if nodes != 1 else "")
-        rows.append({"mode": i + 1, "freq_hz": float(modes.freq_hz[i]),
-                     "damping_ratio": float(zeta[i]), "shape": desc})
-    return rows
+        if modes.rigid[i]:
+            motion = next(rigid_names) if rigid_names is not None else None
+            desc = f"rigid-body {motion}" if motion and motion != "mixed" else "rigid-body"
+        else:
+            desc = _suspension(model, R, motions, phi, modes.omega_rad_s[i]) \
+                if R is not None else None
+        if desc is None:
+            energy = {d: float(np.sum(Mdiag[dirs == d] * phi[dirs == d] ** 2)) for d in names}
+            dom = max(energy, key=energy.get)
+            comp = phi[dirs == dom]
+            big = np.abs(comp) > 1e-3 * np.abs(comp).max() if comp.size else comp
+            nodes = int(np.sum(np.diff(np.sign(comp[big])) != 0)) if comp.size else 0
+            desc = f"{names[dom]}, {nodes} node" + ("s" if nodes != 1 else "")
+        rows.append({"freq_hz": float(modes.freq_hz[i]), "damping_ratio": float(zeta[i]),
+                     "shape": desc, "rigid": bool(modes.rigid[i])})
+    # stable order: frequency, then the description within a degenerate group
+    order, k = [], 0
+    while k < m:
+        g = k + 1
+        while g < m and (rows[g]["rigid"] and rows[k]["rigid"] or abs(
+                rows[g]["freq_hz"] - rows[k]["freq_hz"]) <= 1e-9 * rows[k]["freq_hz"]):
+            g += 1
+        group = list(range(k, g))
+        if all(rows[j]["rigid"] for j in group) and R is not None:
+            pass  # already in RIGID_MOTIONS order
+        else:
+            group.sort(key=lambda j: rows[j]["shape"])
+        order += group
+        k = g
+    return [{"mode": n + 1, "freq_hz": rows[j]["freq_hz"],
+             "damping_ratio": rows[j]["damping_ratio"], "shape": rows[j]["shape"]}
+            for n, j in enumerate(order)]
+
+
+def _suspension(model, R, motions, phi, omega) -> str | None:
+    """``"suspension <name> (<motion>)"`` when ``phi`` is a rigid-body motion lifted by
+    the supports (see :func:`modal_table`), else None."""
+    G = R.T @ (model.M @ R)
+    c = np.linalg.lstsq(G, R.T @ (model.M @ phi), rcond=None)[0]
+    r = R @ c
+    kinetic = float(r @ (model.M @ r))
+    total = float(phi @ (model.M @ phi))
+    if total <= 0 or kinetic <= SUSPENSION_RIGID_SHARE * total or omega <= 0:
+        return None
+    rayleigh = float(r @ (model.K @ r)) / kinetic
+    if rayleigh > SUSPENSION_RAYLEIGH_RATIO * omega**2:
+        return None
+    share = c**2 * np.diag(G)
+    motion = motions[int(np.argmax(share))]
+    return f"suspension {SUSPENSION_NAMES[motion]} ({motion})"
 
 
 @dataclass(frozen=True)

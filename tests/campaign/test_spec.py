@@ -106,3 +106,42 @@ def test_output_time_histories_choice(quickstart_dict):
     quickstart_dict["output"] = {"time_histories": "some"}
     with pytest.raises(CampaignError, match=r"(?s)'output.time_histories'.*first_trial"):
         parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_limits_are_inclusive(small_dict):
+    """At the limits a campaign loads; one step beyond, it is refused (the corpus in
+    tests/bad_input has the refusals)."""
+    import math
+
+    from truthbench.campaign.spec import MAX_ELEMENTS, max_noise_fraction
+
+    assert max_noise_fraction(8) == pytest.approx(4.0)
+    d = small_dict
+    d["tests"][0]["noise_fraction"] = max_noise_fraction(d["tests"][0]["averages"])
+    d["campaign"]["name"] = "a" * 64
+    d["tests"][1]["name"] = "fourth | bar"
+    parse_campaign(d)
+    d["tests"][0]["noise_fraction"] = math.nextafter(d["tests"][0]["noise_fraction"], 99.0)
+    with pytest.raises(CampaignError, match=r"'tests\[0\].noise_fraction': expected at most "
+                                            r"sqrt\(2 averages\) = 2.828 for 4 averages"):
+        parse_campaign(d)
+    assert MAX_ELEMENTS == 500
+
+
+def test_lines_and_memory_estimate(small_dict):
+    from truthbench.campaign.spec import frequency_lines, memory_estimate_bytes
+
+    spec = parse_campaign(small_dict)
+    t = spec.tests[0]  # 4 s at 1024 Hz, 4 averages: 1024-sample segments
+    assert frequency_lines(t) == (1.0, 513)
+    n = 4096
+    channels = 1 + len(spec.test_sensors(0))
+    # periodic path: the larger of the records and the modal response at every line
+    need, what = memory_estimate_bytes(spec, 0, n_dofs=54)
+    assert need == max(8 * n * channels, 16 * (n // 2 + 1) * 54)
+    assert "DOFs" in what
+    small_dict["tests"][0]["simulation"] = "time"
+    small_dict["tests"][0]["oversample"] = 4
+    spec = parse_campaign(small_dict)
+    need, what = memory_estimate_bytes(spec, 0, n_dofs=54)
+    assert need == 8 * n * channels * 4 and "oversample 4" in what

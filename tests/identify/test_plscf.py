@@ -266,3 +266,57 @@ def test_gap_split_clustering_equals_plain_average_linkage():
         same_mine = mine[:, None] == mine[None, :]
         same_ref = ref[:, None] == ref[None, :]
         np.testing.assert_array_equal(same_mine, same_ref)
+
+
+def test_significance_keeps_modes_and_drops_a_pole_that_explains_nothing(synthetic):
+    """A pole that fits nothing (between two modes, no resonance there) explains none of
+    its band; every true mode explains orders of magnitude more than what remains."""
+    from truthbench.identify.plscf import SIGNIFICANCE_MIN, mode_significance
+
+    syn = synthetic(noise=0.01, seed=4)
+    fake = 2 * np.pi * 50.0 * (-0.01 + 1j * np.sqrt(1 - 0.01**2))
+    poles = np.concatenate([syn.poles_true, [fake]])
+    fit = lsfd(syn.freq_hz, syn.frf, poles)
+    sig = mode_significance(syn.freq_hz, syn.frf, fit)
+    assert np.all(sig[:-1] > 100 * SIGNIFICANCE_MIN)
+    assert sig[-1] < SIGNIFICANCE_MIN
+    # identify_plscf applies it: the fake pole is never chosen, the true ones are
+    res = identify_plscf(syn.freq_hz, syn.frf, max_order=24)
+    assert res.selection.significance is not None
+    assert np.all(res.selection.significance >= SIGNIFICANCE_MIN)
+    assert res.modal.n_modes == syn.freq_true.size
+
+
+def _diagram(tracks, orders, band=(1.0, 100.0)):
+    """A stabilization diagram by hand: ``tracks`` maps a pole (rad/s) to the orders in
+    which it is present and stable."""
+    from truthbench.identify.plscf import StabilizationDiagram
+
+    poles, parts, stable = [], [], []
+    for n in orders:
+        here = [lam for lam, at in tracks.items() if n in at]
+        poles.append(np.array(sorted(here, key=lambda z: z.imag), complex))
+        parts.append(np.ones((len(here), 1), complex))
+        stable.append(np.ones(len(here), bool))
+    return StabilizationDiagram(orders=np.asarray(orders), poles=tuple(poles),
+                                participation=tuple(parts), stable_freq=tuple(stable),
+                                stable_damping=tuple(stable), stable_vector=tuple(stable),
+                                physical=tuple(stable), freq_range_hz=band)
+
+
+def test_persistence_is_counted_from_a_modes_first_order():
+    """A mode that needs order 15 to show and then persists is a mode at max order 20
+    as at 80; a pole stable in the last two orders only, or in a third of the orders
+    since it appeared, is not."""
+    def pole(f_hz, zeta=0.01):
+        return 2 * np.pi * f_hz * (-zeta + 1j * np.sqrt(1 - zeta**2))
+
+    strong, late, flicker, tail = pole(10.0), pole(30.0), pole(50.0), pole(70.0)
+    for top in (20, 40, 80):
+        orders = range(1, top + 1)
+        tracks = {strong: set(range(5, top + 1)), late: set(range(15, top + 1)),
+                  flicker: set(range(6, top + 1, 3)), tail: {top - 1, top}}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            sel = select_poles(_diagram(tracks, orders))
+        np.testing.assert_allclose(np.abs(sel.poles) / (2 * np.pi), [10.0, 30.0], rtol=1e-9)

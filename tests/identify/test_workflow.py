@@ -27,6 +27,7 @@ from truthbench.identify import (
     identify_frfs,
     mac,
 )
+from truthbench.identify import workflow as identify
 from truthbench.io import ladisk_beam_impact, write_uff58_frf, write_uff58_time
 from truthbench.measure import Channel, FRFData, frfs_from_time
 from truthbench.simulate import add_sensor_noise, simulate_lti
@@ -247,6 +248,68 @@ def test_identify_frfs_uses_the_data_band_and_drops_0_hz():
     clean = identify_frfs(frfdata(f, modal_frf(f, q=0), ["displacement"] * 3), max_order=20)
     assert clean.band_hz == (0.125, 128.0)
     np.testing.assert_allclose(clean.modal.freq_hz, F_HZ, rtol=1e-5)
+
+
+def _coherent_in(f, lo, hi, n_avg, n_ch, rng):
+    """Coherence 0.999 inside [lo, hi]; outside, the coherence of uncorrelated records
+    over ``n_avg`` averages (Beta(1, n_avg - 1))."""
+    g = rng.beta(1.0, n_avg - 1.0, size=(f.size, n_ch, 1))
+    g[(f >= lo) & (f <= hi)] = 0.999
+    return g
+
+
+def test_default_band_from_the_coherence():
+    """A file without an excited band (a UFF from another tool): the lines where the
+    coherence shows the input, not every line; outside them the H1 is noise."""
+    rng = np.random.default_rng(5)
+    f = np.arange(0, 1601) * 0.125  # 0 .. 200 Hz
+    H = modal_frf(f, q=2)
+    out = (f < 8.0) | (f > 120.0)
+    H[out] = 1e3 * (rng.standard_normal(H[out].shape) + 1j * rng.standard_normal(H[out].shape))
+    g = _coherent_in(f, 8.0, 120.0, 8, 3, rng)
+    outs = tuple(Channel(f"o{k}", "acceleration") for k in range(3))
+    data = FRFData("nb", f, H, outs, (Channel("f", "force"),), coherence=g, n_averages=8)
+    assert data.band_hz is None
+    # the threshold: max(0.5, 1 - (0.01 / (lines x channels))^(1 / (n_d - 1)))
+    level = 1 - (0.01 / (1600 * 3)) ** (1 / 7)
+    assert identify.coherence_threshold(8, 1600, 3) == pytest.approx(level, rel=1e-12)
+    assert identify.coherence_threshold(None, 1600, 3) == 0.5
+    assert identify.coherence_threshold(1, 1600, 3) == 0.5
+    lo, hi, rule = identify.default_band(data)
+    assert (lo, hi) == (8.0, 120.0) and "coherence reaches" in rule
+    d = identify_frfs(data, max_order=20)
+    assert d.band_hz == (8.0, 120.0) and d.band_rule == rule
+    np.testing.assert_allclose(d.modal.freq_hz, F_HZ, rtol=1e-5)
+    shapes = np.real(np.asarray(d.modal.shapes))
+    assert np.all(np.diag(mac(shapes, PHI)) > 0.9999)
+    # every line above 0 Hz (the rule before) fits the noise and loses the shapes
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # it may find nothing stable at all
+        every = identify_frfs(data, max_order=20, band_hz=(0.125, 200.0))
+    assert every.n_modes != 2 or np.min(np.diag(mac(np.real(np.asarray(
+        every.modal.shapes)), PHI))) < 0.99
+
+
+def test_default_band_rules_in_order():
+    f = np.arange(0, 801) * 0.25
+    H = modal_frf(f, q=0)
+    rng = np.random.default_rng(0)
+    g = _coherent_in(f, 10.0, 150.0, 4, 3, rng)
+    outs = tuple(Channel(f"o{k}", "displacement") for k in range(3))
+    ins = (Channel("f", "force"),)
+    # 1. the data's own band wins over its coherence
+    d = FRFData("a", f, H, outs, ins, coherence=g, n_averages=4, band_hz=(5.0, 100.0))
+    assert identify.default_band(d) == (5.0, 100.0, "the data's excited band")
+    # 2. the coherence, with the averages unknown: 0.5
+    d = FRFData("b", f, H, outs, ins, coherence=g)
+    lo, hi, rule = identify.default_band(d)
+    assert lo <= 10.0 and hi >= 150.0 and "averages unknown" in rule
+    # 3. neither: every line above 0 Hz, and the rule says to give a band
+    d = FRFData("c", f, H, outs, ins)
+    lo, hi, rule = identify.default_band(d)
+    assert (lo, hi) == (0.25, 200.0) and "--band" in rule
+    report = identify_frfs(d, max_order=20).band_rule
+    assert report == rule
 
 
 def test_no_mode_in_the_band_is_an_empty_result():

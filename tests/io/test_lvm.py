@@ -451,3 +451,22 @@ def test_time_record_validates_its_fields() -> None:
     rec = TimeRecord(data=source, dt_s=0.5, channel_names=["a"], units=["N"])
     source[0, 0] = 7.0  # the record holds a copy
     assert rec.data[0, 0] == 1.0 and rec.channel_names == ("a",)
+
+
+def test_non_finite_values_and_binary_data_are_named(tmp_path):
+    """NaN or Inf in a channel (a dropped or overranged sample) and bytes that are not
+    text (the file written over) are refused with the line and channel, not read on
+    into an FRF or called a truncation."""
+    rows = [[0.5 * k, -1.25 * k + 0.125] for k in range(5)]
+    text = lvm_text(rows=rows)
+    nan = write(tmp_path, text.replace("-2.375000", "NaN"))
+    with pytest.raises(DataFormatError, match=_match(nan, r"line \d+: non-finite value in "
+                                                          r"column 3 \(channel 'force'\): "
+                                                          r"expected a finite number, got "
+                                                          r"'NaN'")):
+        read_lvm(nan)
+    junk = tmp_path / "junk.lvm"
+    junk.write_bytes(text.encode().replace(b"1.500000", b"1.5\x00\x07\n\x01"))
+    with pytest.raises(DataFormatError, match=_match(junk, r"line \d+: binary data in a text "
+                                                           r"file: character '\\x00'")):
+        read_lvm(junk)

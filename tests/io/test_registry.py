@@ -172,3 +172,11 @@ def test_register_reader_rejects_bad_arguments() -> None:
         register_reader("a/b", read_lvm)
     with pytest.raises(TypeError, match=r"func for '\.xyz' must be callable"):
         register_reader(".xyz", "not callable")  # type: ignore[arg-type]
+
+
+def test_a_directory_is_not_a_data_file(tmp_path):
+    for name in ("x.lvm", "x.uff", "x.h5"):
+        (tmp_path / name).mkdir()
+        with pytest.raises(DataFormatError, match=re.escape(str(tmp_path / name))
+                           + ": is a directory; expected a data file"):
+            load_frf(tmp_path / name)

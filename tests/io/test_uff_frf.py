@@ -462,3 +462,17 @@ def test_time_sets_in_a_non_si_file(tmp_path):
     est = estimate_frf(force_n, acc, fs, window="hann", n_averages=8, detrend="constant")
     # binary doubles; two unit conversions per channel: a few ulp, bounded by 8 eps
     assert_parts_close(d.H[1:], est.H[1:], 1e-12)
+
+
+def test_non_finite_values_in_a_foreign_file(tmp_path):
+    """pyuff reads 'nan' and 'inf' as numbers: the reader refuses them, naming the set
+    and the line, instead of passing them on (write_uff never writes them)."""
+    d = synthetic("nf", coherence=False)
+    lines = write_uff(tmp_path / "ok.uff", d).read_text().split("\n")
+    i = next(k for k, t in enumerate(lines) if t.strip() == "58") + 13  # a data record
+    lines[i] = "nan".rjust(20) + lines[i][20:]
+    bad = tmp_path / "nan.uff"
+    bad.write_text("\n".join(lines))
+    with pytest.raises(DataFormatError, match=re.escape(str(bad)) + r": load case 1: the FRF "
+                       r"set of response .* holds a non-finite value at [0-9.]+ Hz"):
+        load_frf(bad)

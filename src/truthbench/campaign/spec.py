@@ -28,12 +28,29 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from truthbench._validation import (
+    available_memory_bytes,
+    format_bytes,
+    is_safe_name,
+    name_rule,
+    read_text,
+)
 from truthbench.errors import CampaignError, ModelError
 
 Direction = Literal["x", "y", "z", "rx", "ry", "rz"]
-PositiveFloat = Annotated[float, Field(gt=0)]
-NonNegFloat = Annotated[float, Field(ge=0)]
+# every number of a campaign is finite: TOML has inf and nan literals, and an infinite
+# rate or length would only fail deep inside the computation
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+
+MAX_ELEMENTS = 500
+"""Largest ``[plant] n_elements``. A beam of n elements has 6 (n + 1) DOFs; up to 500
+elements (3006 DOFs) one sparse eigen solve of the lowest 20-60 modes takes under a
+second here (0.35-0.9 s), while from about 700 elements the shift-invert solver slows
+down sharply (800 elements: 4 s for 8 modes; 1000: 20 s; 2000 did not finish in a
+minute). Discretization error is far below any test's at a few tens of elements
+(README, Figure 10.2)."""
 
 DEFAULT_NODE_TOLERANCE_M = 1e-4
 """``[plant] node_tolerance_m`` default (the plants' own
@@ -94,18 +111,32 @@ class StationPosition(_Strict):
     x_m: FiniteFloat
 
 
+def _safe_name(value, portable: bool):
+    if not is_safe_name(value, portable):
+        raise PydanticCustomError("name", f"a name of {name_rule(portable)}")
+    return value
+
+
 class CampaignMeta(_Strict):
     name: str
+    """Names the output folder ``results/<name>`` and the HDF5 results: a portable name
+    (:func:`truthbench._validation.check_name`), never a path."""
     description: str = ""
     seed: Annotated[int, Field(ge=0)] = 0
     trials: Annotated[int, Field(ge=1)] = 1
+
+    @field_validator("name")
+    @classmethod
+    def _portable_name(cls, v):
+        return _safe_name(v, portable=True)
 
 
 class PlantSpec(_Strict):
     """The test article: plant type, mesh, section, material, stations, suspension."""
 
     type: Literal["free_free_beam", "hub_beam"]
-    n_elements: Annotated[int, Field(ge=1, le=2000)] = 20
+    n_elements: Annotated[int, Field(ge=1)] = 20
+    """Equal elements along the beam, at most :data:`MAX_ELEMENTS`."""
     n_groups: Annotated[int, Field(ge=1)] = 1
     section: str = "tube"
     """Cross-section, one of :data:`truthbench.fe.beam.SECTIONS` (its dimensions are plant
@@ -121,7 +152,17 @@ class PlantSpec(_Strict):
     nodes nearest 0.224 L and 0.776 L)."""
     node_tolerance_m: PositiveFloat = DEFAULT_NODE_TOLERANCE_M
     """Largest distance from a position in metres to the node it maps to."""
-    parameters: dict[str, float] = Field(default_factory=dict)
+    parameters: dict[str, FiniteFloat] = Field(default_factory=dict)
+
+    @field_validator("n_elements")
+    @classmethod
+    def _solvable_size(cls, v):
+        if v > MAX_ELEMENTS:
+            raise PydanticCustomError(
+                "size", f"at most {MAX_ELEMENTS} elements ({6 * (MAX_ELEMENTS + 1)} DOFs), "
+                f"what the eigensolver handles in about a second; {v} elements give "
+                f"{6 * (v + 1)} DOFs")
+        return v
 
     @field_validator("section")
     @classmethod
@@ -234,10 +275,29 @@ def position_station_name(x_m: float) -> str:
 class TruthSpec(_Strict):
     """The hardware's truth: offsets from the nominal model plus effects (Table 10.1)."""
 
-    relative: dict[str, Annotated[float, Field(gt=-1)]] = Field(default_factory=dict)
+    relative: dict[str, Annotated[float, Field(gt=-1, allow_inf_nan=False)]] = Field(
+        default_factory=dict)
     """Fractional offsets: ``E_pa = 0.03`` means truth E = 1.03 x nominal E."""
     effects: list[dict[str, Any]] = Field(default_factory=list)
     """``[[truth.effects]]`` tables, validated by :func:`truthbench.effects.parse_effect`."""
+
+
+def _ordered_band(v):
+    if not v[0] < v[1]:
+        raise PydanticCustomError("band", "[low, high] in Hz with low < high")
+    return v
+
+
+def max_noise_fraction(averages: int) -> float:
+    """Largest ``noise_fraction`` of a test with ``averages`` segments: ``sqrt(2 n_d)``.
+
+    Output noise of standard deviation ``r`` times the signal's gives the coherence
+    ``1 / (1 + r^2)``, and the normalised random error of the H1 magnitude is
+    ``sqrt(1 - gamma^2) / (|gamma| sqrt(2 n_d)) = r / sqrt(2 n_d)`` (Bendat and Piersol,
+    Random Data: the random error of a gain-factor estimate); above ``r = sqrt(2 n_d)``
+    it exceeds 100 %: the FRF holds no information.
+    """
+    return math.sqrt(2.0 * averages)
 
 
 class TestSpec(_Strict):
@@ -266,12 +326,15 @@ class TestSpec(_Strict):
     effects: list[dict[str, Any]] = Field(default_factory=list)
     """Effects of this test only (added mass, other boundary conditions, ...)."""
 
+    @field_validator("name")
+    @classmethod
+    def _group_name(cls, v):
+        return _safe_name(v, portable=False)
+
     @field_validator("band_hz")
     @classmethod
     def _band_ordered(cls, v):
-        if not v[0] < v[1]:
-            raise ValueError(f"band_hz must be [low, high] with low < high; got {list(v)}")
-        return v
+        return _ordered_band(v)
 
 
 class IdentifySpec(_Strict):
@@ -298,6 +361,11 @@ class UpdateSpec(_Strict):
     mac_min: Annotated[float, Field(ge=0, le=1)] = 0.8
     """Sensitivity localization: least MAC of a measured-model mode pair."""
 
+    @field_validator("band_hz")
+    @classmethod
+    def _band_ordered(cls, v):
+        return None if v is None else _ordered_band(v)
+
 
 class UncertaintySpec(_Strict):
     """The uncertainty model of the tests (Eq. 10.46-10.50) and its check against truth."""
@@ -309,6 +377,11 @@ class UncertaintySpec(_Strict):
     holdout: list[str] = Field(default_factory=list)
     """Names of tests that do not build the bound; their true modal parameters are new
     draws against it (the calibration the Monte Carlo report scores)."""
+
+    @field_validator("band_hz")
+    @classmethod
+    def _band_ordered(cls, v):
+        return None if v is None else _ordered_band(v)
 
 
 class OutputSpec(_Strict):
@@ -453,7 +526,8 @@ def _format_validation_error(source: str, err: ValidationError) -> str:
         elif e["type"] == "missing":
             lines.append(f"  - key '{loc}' is required but missing")
         else:
-            lines.append(f"  - key '{loc}': expected {e['msg'].lower()}; got {received!r}")
+            msg = e["msg"][:1].lower() + e["msg"][1:]  # "Input should be" -> "input ..."
+            lines.append(f"  - key '{loc}': expected {msg}; got {received!r}")
     return "\n".join(lines)
 
 
@@ -475,12 +549,17 @@ def parse_campaign(data: dict, source: str = "<memory>") -> CampaignSpec:
 
 
 def load_campaign(path: str | Path) -> CampaignSpec:
-    """Read and validate a campaign TOML file."""
+    """Read and validate a campaign TOML file.
+
+    Raises
+    ------
+    CampaignError
+        A missing file, a directory, a binary file (an HDF5 results file given by
+        mistake), bytes that are not UTF-8, TOML syntax, or any problem
+        :func:`parse_campaign` finds; the message names the file.
+    """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CampaignError(f"{path}: campaign file not found") from None
+    text = read_text(path, what="campaign file (TOML)", error=CampaignError)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -619,16 +698,18 @@ def _check_references(spec: CampaignSpec) -> None:
         raise CampaignError(f"{src}: key 'plant.parameters': {exc}") from None
     for key in spec.truth.relative:
         check_param(key, f"truth.relative.{key}")
-    effects = spec.truth_effects()
+    effects = [(f"truth.effects[{k}]", e) for k, e in enumerate(spec.truth_effects())]
     for j in range(len(spec.tests)):
-        effects += spec.test_effects(j)
-    for eff in effects:  # stations named in effect options must exist
+        effects += [(f"tests[{j}].effects[{k}]", e) for k, e in enumerate(spec.test_effects(j))]
+    for where, eff in effects:  # stations named in effect options must exist
         if "station" in eff.options:
             try:
                 plant.station_node(eff.options["station"])
             except ModelError as exc:
-                raise CampaignError(f"{src}: effect {eff.name!r}: {exc}") from None
+                raise CampaignError(f"{src}: key '{where}.station': effect {eff.name!r}: "
+                                    f"{exc}; got {eff.options['station']!r}") from None
     _check_geometry_effects(spec, plant)
+    check_refinement(spec, effects)
     from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater
 
     for key in spec.update.parameters:
@@ -687,10 +768,19 @@ def _check_references(spec: CampaignSpec) -> None:
         if t.band_hz[1] > nyquist:
             raise CampaignError(f"{src}: key 'tests[{j}].band_hz': expected an upper edge at or "
                                 f"below the Nyquist frequency {nyquist} Hz; got {t.band_hz[1]}")
+        limit = max_noise_fraction(t.averages)
+        if t.noise_fraction > limit:
+            raise CampaignError(
+                f"{src}: key 'tests[{j}].noise_fraction': expected at most sqrt(2 averages) "
+                f"= {limit:.4g} for {t.averages} averages (beyond it the random error of "
+                f"|H1| exceeds 100 %: the FRF holds no information); got {t.noise_fraction!r}")
         n = int(round(t.record_s * t.fs_hz))
         if n // t.averages < 16:
             raise CampaignError(f"{src}: key 'tests[{j}].averages': {t.averages} averages of a "
                                 f"{n}-sample record leave fewer than 16 samples per segment")
+    _check_channels(spec)
+    _check_update_lines(spec)
+    _check_memory(spec, plant)
     # m r > p (METHOD 5.1): SISO pairs over all tests against updated parameters
     if any("frf" in UPDATERS[m].needs for m in spec.update_methods()):
         pairs = sum(len(t.actuators) * len(spec.test_sensors(j)) for j, t in
@@ -701,3 +791,138 @@ def _check_references(spec: CampaignSpec) -> None:
                 f"{src}: key 'update.parameters': the finite-difference method needs more "
                 f"SISO transfer functions than parameters (m r > p); the tests give "
                 f"m r = {pairs} for p = {p}. Add sensors or tests, or update fewer parameters.")
+
+
+def check_refinement(spec: CampaignSpec, effects, source: str | None = None) -> None:
+    """A ``discretization`` effect meshes the truth ``refine`` times finer: an integer
+    >= 1 whose mesh stays within :data:`MAX_ELEMENTS` (the truth's eigen solve is the
+    model's, refined).
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    effects : iterable of (str, EffectSpec)
+        Where each effect was given (a key, or ``--inject ...``) and the effect.
+    source : str, optional
+        The file or option named first in messages (default ``spec.source``).
+    """
+    src = spec.source if source is None else source
+    n = spec.plant.n_elements
+    for where, eff in effects:
+        if eff.name != "discretization":
+            continue
+        k = eff.options.get("refine")
+        if isinstance(k, bool) or not isinstance(k, int | float) or k != int(k) or k < 1:
+            raise CampaignError(f"{src}: key '{where}.refine': expected an integer >= 1 "
+                                f"(the truth's elements per model element); got {k!r}")
+        k = int(k)
+        if n * k > MAX_ELEMENTS:
+            raise CampaignError(
+                f"{src}: key '{where}.refine': the truth would have {n} x {k} = "
+                f"{n * k} elements; expected at most {MAX_ELEMENTS} (what the eigensolver "
+                f"handles in about a second), so refine at most {MAX_ELEMENTS // n}")
+
+
+def _check_channels(spec: CampaignSpec) -> None:
+    """No sensor or actuator twice in one list (same station, direction and quantity):
+    a repeated channel makes the FRF matrix and the update rank-deficient."""
+    src = spec.source
+
+    def once(items, key, fields):
+        seen = {}
+        for i, item in enumerate(items):
+            ident = tuple(getattr(item, f) for f in fields)
+            if ident in seen:
+                raise CampaignError(
+                    f"{src}: key '{key}[{i}]': the same channel as {key}[{seen[ident]}] "
+                    f"({', '.join(f'{f} {v!r}' for f, v in zip(fields, ident, strict=True))}); "
+                    f"expected each {key.rsplit('.', 1)[-1][:-1]} once")
+            seen[ident] = i
+
+    once(spec.sensors, "sensors", ("station", "direction", "quantity"))
+    for j, t in enumerate(spec.tests):
+        once(t.actuators, f"tests[{j}].actuators", ("station", "direction"))
+        if t.sensors is not None:
+            once(t.sensors, f"tests[{j}].sensors", ("station", "direction", "quantity"))
+
+
+def frequency_lines(test: TestSpec):
+    """The frequency lines of a test's FRF: multiples of ``fs / nperseg`` from 0 to
+    ``fs / 2``, ``nperseg = samples // averages`` (as the runner's H1 estimate).
+
+    Returns
+    -------
+    (df_hz, n_lines) : (float, int)
+    """
+    n = int(round(test.record_s * test.fs_hz))
+    nper = n // test.averages
+    return test.fs_hz / nper, nper // 2 + 1
+
+
+def _check_update_lines(spec: CampaignSpec) -> None:
+    """Every test has frequency lines inside the update band (the runner intersects the
+    two bands; a test without lines there cannot be updated against)."""
+    if not spec.update_methods() or spec.update.band_hz is None:
+        return
+    ulo, uhi = spec.update.band_hz
+    empty = []
+    for t in spec.tests:
+        lo, hi = max(t.band_hz[0], ulo), min(t.band_hz[1], uhi)
+        df, n_lines = frequency_lines(t)
+        first = max(1, math.ceil(lo / df - 1e-9))
+        last = min(n_lines - 1, math.floor(hi / df + 1e-9))
+        if last < first:
+            empty.append(f"{t.name!r} (band {t.band_hz[0]:g}-{t.band_hz[1]:g} Hz)")
+    if empty:
+        raise CampaignError(
+            f"{spec.source}: key 'update.band_hz': expected a band that overlaps every "
+            f"test's excited band with at least one frequency line; got "
+            f"{ulo:g}-{uhi:g} Hz, which holds no line of {', '.join(empty)}")
+
+
+def memory_estimate_bytes(spec: CampaignSpec, j: int, n_dofs: int) -> tuple[int, str]:
+    """A lower bound of the memory test ``j`` holds at once while it is simulated.
+
+    The larger of (a) its records, samples x channels x 8 bytes (x ``oversample`` on
+    the time path, which steps at that multiple of the rate), and (b) on the periodic
+    path the modal response at every line, lines x model DOFs x 16 bytes (one complex
+    number per line and mode; the measured peak is about 26 bytes per line and DOF).
+
+    Returns
+    -------
+    (bytes, what) : (int, str)
+        The bound and how it was counted.
+    """
+    t = spec.tests[j]
+    n = int(round(t.record_s * t.fs_hz))
+    channels = len(t.actuators) + len(spec.test_sensors(j))
+    time_path = t.simulation == "time" or any(
+        e.effect.target == "nonlinear" for e in spec.truth_effects() + spec.test_effects(j))
+    factor = t.oversample if time_path else 1
+    records = 8 * n * channels * factor
+    what = (f"{n} samples x {channels} channels x 8 bytes"
+            + (f" x oversample {factor}" if factor > 1 else ""))
+    if not time_path:
+        modal = 16 * (n // 2 + 1) * n_dofs
+        if modal > records:
+            return modal, f"{n // 2 + 1} lines x {n_dofs} DOFs x 16 bytes"
+    return records, what
+
+
+def _check_memory(spec: CampaignSpec, plant) -> None:
+    """Refuse a test whose arrays cannot fit in the memory available now (before any
+    work; :func:`memory_estimate_bytes`)."""
+    available = available_memory_bytes()
+    if available is None:
+        return
+    for j, t in enumerate(spec.tests):
+        refine = max([int(e.options.get("refine", 1)) for e in spec.truth_effects()
+                      + spec.test_effects(j) if e.name == "discretization"] or [1])
+        n_dofs = 6 * (spec.plant.n_elements * refine + 1)  # the truth's mesh
+        need, what = memory_estimate_bytes(spec, j, n_dofs)
+        if need > available:
+            raise CampaignError(
+                f"{spec.source}: key 'tests[{j}].record_s': test {t.name!r} needs at least "
+                f"{format_bytes(need)} ({what}), more than the {format_bytes(available)} "
+                f"of memory available; expected a shorter record or a lower fs_hz "
+                f"(record_s {t.record_s:g} s at fs_hz {t.fs_hz:g} Hz)")

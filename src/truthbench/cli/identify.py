@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-import sys
+from truthbench.cli._args import frequency_hz, int_in, positive_int
+
+#: Highest pLSCF order the command accepts: the campaign's ``[identify] max_order`` range.
+MAX_ORDER = 200
 
 
 def _fmt_shape(values) -> str:
@@ -10,19 +13,24 @@ def _fmt_shape(values) -> str:
 
 
 def _cmd_identify(args) -> int:
-    import json
-
+    import truthbench.campaign.store  # noqa: F401  (registers the .h5/.hdf5 reader)
+    from truthbench.cli._args import dumps
+    from truthbench.errors import DataFormatError
     from truthbench.identify.workflow import EULER_BERNOULLI_FREE_FREE_RATIOS, identify_file
 
+    band = None
+    if args.band:
+        band = tuple(args.band)
+        if not band[0] < band[1]:
+            raise DataFormatError(f"argument --band: expected LO < HI in Hz; got "
+                                  f"{band[0]:g} {band[1]:g}")
     try:
         report = identify_file(args.data, method=args.method, max_order=args.max_order,
-                               band_hz=tuple(args.band) if args.band else None,
-                               n_modes=args.modes)
-    except (ValueError, FileNotFoundError) as exc:  # DataFormatError is a ValueError
-        print(f"truthbench identify: error: {exc}", file=sys.stderr)
-        return 2
+                               band_hz=band, n_modes=args.modes)
+    except ValueError as exc:  # the library's input errors (DataFormatError is one)
+        raise DataFormatError(str(exc)) from None
     if args.json:
-        print(json.dumps(report.to_dict(), indent=2))
+        print(dumps(report.to_dict(), indent=2))
         return 0
     print(f"{report.path}: {report.file_format}, method {report.method}"
           + (f" (max order {report.max_order})" if report.method == "plscf" else ""))
@@ -32,6 +40,8 @@ def _cmd_identify(args) -> int:
               f"{len(data.input_labels)} input(s), band {d.band_hz[0]:.6g}-{d.band_hz[1]:.6g} Hz")
         for note in data.notes:
             print(f"  {note}")
+        if d.band_rule:
+            print(f"  band rule: {d.band_rule}")
         if d.n_modes == 0:
             print("  no mode identified in the band")
             continue
@@ -62,16 +72,25 @@ def _cmd_identify(args) -> int:
 
 def register(subparsers) -> None:
     i = subparsers.add_parser(
-        "identify", help="identify modal parameters from a data file (.h5, .uff, .lvm)")
+        "identify", help="identify modal parameters from a data file (.h5, .uff, .lvm)",
+        description="Modal parameters (frequency, damping ratio, shapes) of every FRF set "
+                    "in a data file: results and simulate files (.h5), UFF 58 (.uff, "
+                    ".unv) and LabVIEW records (.lvm). Without --band each data set's "
+                    "band comes from the data: its excited band when the file records "
+                    "it, else the lines where the coherence shows the input, else every "
+                    "line above 0 Hz.",
+        epilog="examples:\n"
+               "  truthbench identify results/quickstart/results.h5\n"
+               "  truthbench identify test.uff --band 10 400 --json\n"
+               "  truthbench identify record.lvm --max-order 60")
     i.add_argument("data", help="results .h5/.hdf5, UFF 58 .uff/.unv, or LabVIEW .lvm")
-    i.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    i.add_argument("--method", default="plscf", choices=("plscf", "peak"),
-                   help="identifier (default plscf)")
-    i.add_argument("--max-order", type=int, default=30,
-                   help="highest pLSCF model order (default 30)")
-    i.add_argument("--band", type=float, nargs=2, metavar=("LO", "HI"),
-                   help="identification band in Hz (default: per data set)")
-    i.add_argument("--modes", type=int, help="peak picking: number of peaks kept")
+    i.add_argument("--json", action="store_true", help="print strict JSON instead of a table")
+    i.add_argument("--method", default="plscf", choices=("plscf", "peak"), help="identifier")
+    i.add_argument("--max-order", type=int_in(2, MAX_ORDER, "pLSCF compares consecutive "
+                                              "orders; a campaign's [identify] range"),
+                   default=30, help="highest pLSCF model order")
+    i.add_argument("--band", type=frequency_hz, nargs=2, metavar=("LO", "HI"),
+                   help="identification band in Hz (default: from the data, see above)")
+    i.add_argument("--modes", type=positive_int,
+                   help="peak picking: number of peaks kept (default: every peak)")
     i.set_defaults(func=_cmd_identify)
-
-

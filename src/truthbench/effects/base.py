@@ -245,6 +245,11 @@ def effect_from_inject(text: str) -> EffectSpec:
         try:
             params[key] = float(value)
         except ValueError:
+            cls = EFFECTS.get(entry["name"])
+            if cls is not None and key in {p.name for p in cls.params}:
+                raise CampaignError(
+                    f"--inject {text!r}: parameter {key!r} of effect {entry['name']!r} "
+                    f"must be a number; got {value.strip()!r}") from None
             entry[key] = value.strip()
     cls = EFFECTS.get(entry["name"])
     if cls is not None:

@@ -302,6 +302,25 @@ class _Lines:
         return DataFormatError(f"{where}: {what}")
 
 
+_BINARY = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f\ufffd]")
+
+
+def _check_text(src: _Lines) -> None:
+    """An LVM file is text: a control character (other than tab and line ends) or a
+    byte that is not text in UTF-8 or Windows-1252 means the file is corrupt (binary
+    data written into it, a disk or transfer error); say where, before any row count
+    could call it truncated."""
+    for lineno, line in enumerate(src.lines, start=1):
+        m = _BINARY.search(line)
+        if m:
+            raise src.error(
+                lineno,
+                f"binary data in a text file: character {m.group()!r} at column "
+                f"{m.start() + 1}; expected LabVIEW Measurement text (the file is "
+                f"corrupt: written over or damaged in transfer)",
+            )
+
+
 def _split(line: str, sep: str) -> list[str]:
     """Split a header line into fields and drop empty trailing fields."""
     fields = line.split(sep)
@@ -593,8 +612,10 @@ def _data_rows(
             raise src.error(
                 None,
                 f"truncated data: 'Samples' (line {samples_line}) says {ch.n_samples} rows, "
-                f"read {n_rows} (lines {first + 1}-{end}); pass allow_truncated=True to "
-                f"keep the complete rows",
+                f"read {n_rows} (lines {first + 1}-{end}): the file ends early (a "
+                f"recording that stopped, or a copy that was cut); expected "
+                f"{ch.n_samples} rows. In Python, "
+                f"truthbench.io.read_lvm(path, allow_truncated=True) keeps the complete rows",
             )
         if not src.ends_with_newline and n_rows > 0:
             end -= 1  # the last line was cut while being written: drop it
@@ -628,9 +649,22 @@ def _data_values(
             )
     table = [[fields[c] for c in y_cols] for fields in split_rows]
     try:
-        return np.array(table, dtype=np.str_).astype(np.float64).reshape(len(rows), n_ch)
+        values = np.array(table, dtype=np.str_).astype(np.float64).reshape(len(rows), n_ch)
     except ValueError:
         pass
+    else:
+        bad = np.argwhere(~np.isfinite(values))
+        if bad.size:  # NaN or Inf: a dropped or overranged sample, no FRF can use it
+            k, c = (int(v) for v in bad[0])
+            raise src.error(
+                first + k + 1,
+                f"non-finite value in column {y_cols[c] + 1} (channel {names[c]!r}): "
+                f"expected a finite number, got "
+                f"{_show(src.lines[first + k].split(fh.sep)[y_cols[c]])} "
+                f"({int(np.count_nonzero(~np.isfinite(values[:, c])))} such value(s) in "
+                f"that channel)",
+            )
+        return values
     for k, row in enumerate(table):  # slow path: find the first bad field
         for c, text in enumerate(row):
             try:
@@ -653,6 +687,7 @@ def _parse_lvm(raw: bytes, path: str, allow_truncated: bool) -> TimeRecord:
             f"file starting with 'LabVIEW Measurement'"
         )
     src = _Lines(path, _decode(raw))
+    _check_text(src)
     fh = _file_header(src)
     ch = _channel_header(src, fh)
     names, first = _titles(src, ch.next_index, fh, ch.n_channels)

@@ -129,14 +129,18 @@ def load_frf(path: str | PathLike, **options: Any) -> tuple[FRFData, ...]:
     ValueError
         An option the reader does not take (the message lists the ones it takes).
     truthbench.errors.DataFormatError
-        No reader registered for the extension (the message names it and the supported
-        ones), a reader that returns something else than FRFData, or a malformed file.
+        A directory, no reader registered for the extension (the message names it and
+        the supported ones), a reader that returns something else than FRFData, or a
+        malformed file.
     """
     from truthbench.measure.frfdata import FRFData
 
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"{p}: no such data file")
+    if p.is_dir():
+        raise DataFormatError(f"{p}: is a directory; expected a data file (a results "
+                              f"or simulate .h5, a UFF .uff/.unv, a LabVIEW .lvm)")
     ext = p.suffix.lower()
     reader = _READERS.get(ext)
     if reader is None:

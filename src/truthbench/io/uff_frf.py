@@ -676,6 +676,14 @@ def _frf_group(f: _File, lc: int, selected, coherence_sets, coh_file: _File, sev
             fd, ok_d = _axis_factor(p, d, k, lc, "orddenom", "force", fdir, f.units)
             factor[i, j] = fn / fd
             assumed |= not (ok_n and ok_d)
+    bad = np.argwhere(~np.isfinite(grid.H))
+    if bad.size:  # pyuff reads 'nan' and 'inf' as numbers; no FRF line can use them
+        k_, i_, j_ = (int(v) for v in bad[0])
+        raise DataFormatError(
+            f"{p}: load case {lc}: the FRF set of response {rk[i_][0]}:{rk[i_][1]} and "
+            f"reference {fk[j_][0]}:{fk[j_][1]} holds a non-finite value at "
+            f"{grid.freq_hz[k_]:g} Hz ({bad.shape[0]} non-finite value(s) in the load "
+            f"case); expected finite numbers")
     H = grid.H * factor[None, :, :]
     # coherence
     coh = None
