@@ -123,15 +123,24 @@ class Tried:
     status: str = "screened"
 
 
-def _bounds_ok(cand: Candidate, values: Mapping[str, float], std: Mapping[str, float]
-               ) -> str | None:
+BOUND_SLACK = 0.05
+"""A fitted value may cross its physical bound by this fraction of its natural size (or
+two standard deviations, if more) and still count as at the bound: a fit of an effect
+whose true value sits on the bound (a joint without damping) lands on either side."""
+
+
+def _bounds_ok(cand: Candidate, values: Mapping[str, float], std: Mapping[str, float],
+               sizes: Mapping[str, float]) -> str | None:
+    """None if every fitted value is within its physical bounds (up to the slack), else
+    why not."""
     for p in cand.fitted:
         key = f"{cand.label}.{p.name}"
-        v, s = values[key], std.get(key, 0.0)
-        if p.minimum is not None and v < p.minimum - 2 * s:
-            return f"unphysical: {p.name} = {v:.4g} below {p.minimum:g} by more than 2 std"
-        if p.maximum is not None and v > p.maximum + 2 * s:
-            return f"unphysical: {p.name} = {v:.4g} above {p.maximum:g} by more than 2 std"
+        v = values[key]
+        slack = max(2 * std.get(key, 0.0), BOUND_SLACK * sizes[key])
+        if p.minimum is not None and v < p.minimum - slack:
+            return f"unphysical: {p.name} = {v:.4g} below {p.minimum:g}"
+        if p.maximum is not None and v > p.maximum + slack:
+            return f"unphysical: {p.name} = {v:.4g} above {p.maximum:g}"
     return None
 
 
@@ -304,7 +313,12 @@ def _diagnose(data, plant, nominal, parameters, settings):
             if start is not None:
                 results[c.label] = _refit(problem, current, accepted, c, drop, start, refs,
                                           n, step, tried, declared_start=base.theta)
-        for drop, c, guess, adapt in screened[:settings.refits]:
+        # the best located ones, and every effect without a location (a handful) whose
+        # screened drop is within a factor 10 of the best: its screening is the roughest
+        top = screened[0][0]
+        chosen = list(screened[:settings.refits]) + [
+            s for s in screened[settings.refits:] if s[1].node is None and s[0] > 0.1 * top]
+        for drop, c, guess, adapt in chosen:
             if c.label not in results:
                 results[c.label] = _refit(problem, current, accepted, c, drop, guess, refs,
                                           n, step, tried,
@@ -338,7 +352,8 @@ def _diagnose(data, plant, nominal, parameters, settings):
                                    status=f"full refit: {refit_error(exc)}"))
                 continue
             dbic = float(n * np.log(current.chi2 / full.chi2) - len(c.fitted) * np.log(n))
-            if dbic > settings.threshold and not _bounds_ok(c, full.theta, full.std):
+            if dbic > settings.threshold and not _bounds_ok(c, full.theta, full.std,
+                                                            c.scales(refs)):
                 chosen = c, full, dbic
                 break
         if chosen is None:
@@ -395,6 +410,10 @@ def _signature_start(c: Candidate, views: Residual, tests, model) -> np.ndarray 
 LINE_STEPS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0)
 """Multiples of a candidate's first-order step tried by :func:`_line_search`."""
 
+NATURAL_STEPS = (0.3, 1.0, 3.0, 10.0)
+"""Multiples of a global candidate's natural sizes tried, each parameter alone and with
+either sign (the first-order step from a biased baseline may point the wrong way)."""
+
 
 def _line_search(problem, current, accepted, c, drop, guess, sizes):
     """The chi2 drop along a candidate's first-order step, the model otherwise held:
@@ -406,14 +425,21 @@ def _line_search(problem, current, accepted, c, drop, guess, sizes):
     point)."""
     start = np.array([p.start for p in c.fitted])
     step = guess - start
+    size = np.array([sizes[k] for k in c.keys()])
     if not np.any(step):  # clamped at a bound: try it at its natural sizes instead
-        step = np.array([sizes[k] for k in c.keys()])
+        step = size
     terms = tuple(a.term(start=_fitted_own(a, current.theta)) for a in accepted)
     predict = problem.predict(terms + (c.term(),))
     best = (drop, guess)
     low = np.array([-np.inf if p.minimum is None else p.minimum for p in c.fitted])
-    for a in LINE_STEPS:
-        point = np.maximum(start + a * step, low)
+    points = [start + a * step for a in LINE_STEPS]
+    if c.node is None:  # a global effect: each parameter alone, both signs, by size
+        for i in range(len(start)):
+            for a in NATURAL_STEPS:
+                for sign in (1.0, -1.0):
+                    points.append(start + sign * a * size * (np.arange(len(start)) == i))
+    for point in points:
+        point = np.maximum(point, low)
         theta = {**current.theta, **{k: float(v) for k, v in zip(c.keys(), point,
                                                                   strict=True)}}
         try:
@@ -485,7 +511,7 @@ def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
         return None
     dbic = float(n * np.log(current.chi2 / cf.chi2) - len(c.fitted) * np.log(n))
     own = {p.name: cf.theta[f"{c.label}.{p.name}"] for p in c.fitted}
-    status = _bounds_ok(c, cf.theta, {}) or ("refitted" if cf.converged
+    status = _bounds_ok(c, cf.theta, {}, c.scales(refs)) or ("refitted" if cf.converged
                                               else "refitted (iteration cap)")
     tried.append(Tried(step, c.label, c.effect, c.options, drop, dbic, own,
                        c.effect_values(own), status))
