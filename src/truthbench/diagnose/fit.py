@@ -171,7 +171,7 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
     start : mapping, optional
         Starting values overriding the nominal ones.
     quick : bool
-        A candidate's trial refit: forward differences, at most 10 iterations to a
+        A candidate's trial refit: forward differences, at most 20 iterations to a
         relative change of 1e-4, and no Jacobian at the end (``jacobian`` and
         ``covariance`` are empty). The chi2 is then within a small fraction of the
         optimum's; the chosen candidate is refitted in full.
@@ -191,7 +191,7 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         res = finite_difference_update(
             predict, problem.data, theta0, names, n_pairs=problem.n_pairs,
             weights=problem.weights, additive=problem.additive(names),
-            max_iterations=10 if quick else s.get("max_iterations", 30),
+            max_iterations=20 if quick else s.get("max_iterations", 30),
             tolerance=1e-4 if quick else s.get("tolerance", 1e-6),
             relative_step=s.get("relative_step", 1e-4), max_step=4.0,
             scheme="forward" if quick else "central")

@@ -298,7 +298,7 @@ def finish_structure(
     if clamped.size and (clamped.min() < 0 or clamped.max() >= n_dofs):
         raise ValueError(f"clamped DOFs must lie in 0..{n_dofs - 1}; got {clamped.tolist()}")
 
-    def diag(entries):
+    def add_diag(A, entries):
         d = np.zeros(n_dofs)
         for dof, value in entries:
             if not 0 <= dof < n_dofs:
@@ -306,11 +306,15 @@ def finish_structure(
             if value < 0:
                 raise ValueError(f"lumped value at DOF {dof} must be >= 0; got {value}")
             d[dof] += value
-        return sp.diags(d)
+        if A is None:
+            return sp.diags(d).tocsr()
+        return (A + sp.diags(d)).tocsr() if d.any() else sp.csr_matrix(A)
 
-    M = (M + diag(lumped.masses)).tocsr()
-    K = (K + diag(lumped.springs)).tocsr()
-    C = (diag(lumped.dashpots) + (C if C is not None else 0)).tocsr()
+    M = add_diag(M, lumped.masses)
+    K = add_diag(K, lumped.springs)
+    C = add_diag(C, lumped.dashpots)
     free = np.setdiff1d(np.arange(n_dofs), clamped)
+    if free.size == n_dofs:  # nothing clamped (a free-free beam)
+        return M, C, K, free
     return (M[free][:, free].tocsr(), C[free][:, free].tocsr(), K[free][:, free].tocsr(),
             free)

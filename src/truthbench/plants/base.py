@@ -456,8 +456,17 @@ class Plant:
     def _assemble(self, p, additions: StructuralAdditions) -> Assembled:
         mesh = self.mesh(p)
         props = self.group_properties(p)
-        K, M = assemble(mesh, props, timoshenko=self.timoshenko,
-                        sag_angles_rad=additions.sag_angles_rad)
+        sag = additions.sag_angles_rad
+        key = (type(self).__name__, self.n_elements, self.n_groups, self.section,
+               self.material, float(self.timoshenko), tuple(sorted(p.items())),
+               None if sag is None else np.asarray(sag, float).tobytes())
+        cached = _BASE_CACHE.get(key)
+        if cached is None:
+            cached = assemble(mesh, props, timoshenko=self.timoshenko, sag_angles_rad=sag)
+            if len(_BASE_CACHE) >= _BASE_CACHE_SIZE:
+                _BASE_CACHE.pop(next(iter(_BASE_CACHE)))
+            _BASE_CACHE[key] = cached
+        K, M = cached
         n = mesh.n_dofs
         for e, scale in additions.element_stiffness_scale:
             if not 0 <= e < self.n_elements:
@@ -588,6 +597,13 @@ class Assembled:
     def n_free(self) -> int:
         return len(self.free)
 
+
+_BASE_CACHE: dict = {}
+"""The assembled K and M of the last few (plant, parameters, sag) seen: a model rebuilt
+with the same structure and other additions (a candidate effect's finite differences,
+a diagnosis's line searches) skips the element loop. The matrices are never changed in
+place, so sharing them is safe."""
+_BASE_CACHE_SIZE = 32
 
 PLANTS: dict[str, type[Plant]] = {}
 
