@@ -15,6 +15,7 @@ import sys
 from truthbench._version import __version__
 from truthbench.cli import (
     diagnose,
+    diagnose_study,
     export,
     identify,
     modes,
@@ -26,7 +27,8 @@ from truthbench.cli import (
 )
 from truthbench.cli._args import Parser, harden
 
-COMMANDS = (run, report, simulate, identify, export, diagnose, study, place_sensors, modes)
+COMMANDS = (run, report, simulate, identify, export, diagnose, diagnose_study, study,
+            place_sensors, modes)
 """The command modules, in the order ``--help`` lists them."""
 
 #: An example per command, shown at the end of its ``--help`` (commands whose module

@@ -158,3 +158,54 @@ def write_diagnosis(diag, out_dir: str | Path, *, sources: tuple[str, ...] = ())
     md = out / "diagnosis.md"
     md.write_text(diagnosis_markdown(diag, figures, sources), encoding="utf-8")
     return write_html(md)
+
+
+def write_study(result, out_dir: str | Path) -> Path:
+    """Write ``study.csv``, ``study.md``, ``study.html`` and ``detection.png`` of a
+    diagnose-study (:class:`~truthbench.campaign.diagnose_study.StudyResult`).
+
+    Returns
+    -------
+    pathlib.Path
+        The HTML file.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    result.trials.to_csv(out / "study.csv", index=False)
+    fig = _save(result.plot(), out / "detection.png")
+    summary = result.to_pandas("summary")
+    lines = [f"# truthbench diagnose-study: {result.campaign}", "",
+             f"- {len(result.trials)} trials, seed {result.seed}; each injects none, one "
+             f"or two effects at random strengths and locations, simulates the campaign's "
+             f"tests, diagnoses them against the nominal model and scores what was found.",
+             "", "## Summary", ""]
+    lines.append(markdown(table(summary, [(c, c, _fmt(c)) for c in summary.columns])))
+    conf = result.to_pandas("confusion")
+    lines += ["", "## Confusion (single-effect trials: injected in rows, first found in "
+              "columns)", ""]
+    if conf.empty:
+        lines.append("(no single-effect trial)\n")
+    else:
+        conf = conf.reset_index().rename(columns={"injected": "injected \\ found"})
+        lines.append(markdown(conf.astype(str)))
+    det = result.to_pandas("detection")
+    lines += ["", "## Detection against strength (single-effect trials, strength "
+              "quartiles)", ""]
+    if not det.empty:
+        lines.append(markdown(table(det, [
+            ("effect", "effect", str), ("parameter", "parameter", str),
+            ("strength_low", "from", sig), ("strength_high", "to", sig),
+            ("trials", "trials", lambda v: str(int(v))),
+            ("first_correct", "right first", lambda v: pct(100 * v, 0) + " %")])))
+    lines += ["", f"![detection against strength]({fig})", ""]
+    md = out / "study.md"
+    md.write_text("\n".join(lines), encoding="utf-8")
+    return write_html(md)
+
+
+def _fmt(column: str):
+    if column in ("trials", "clean trials", "single-effect trials", "two-effect trials"):
+        return lambda v: str(int(v))
+    if column == "median error reduction":
+        return lambda v: f"{sig(v, 3)}x"
+    return lambda v: "-" if v != v else f"{pct(100 * v, 1)} %"
