@@ -427,6 +427,11 @@ class DiagnoseSpec(_Strict):
     refits: Annotated[int, Field(ge=1, le=50)] = 6
     estimator: bool = True
     """Compare through the data's estimator (leakage of averaged H1) when it is known."""
+    window: Literal["rectangular", "bartlett", "hann", "hamming"] | None = None
+    """The segment window of averaged FRFs from other tools (UFF files do not say);
+    the segment length follows from the line spacing."""
+    fs_hz: PositiveFloat | None = None
+    """Their sampling rate (default: twice the highest line)."""
     study: StudySpec = Field(default_factory=StudySpec)
 
     def settings(self) -> dict[str, Any]:
@@ -435,7 +440,8 @@ class DiagnoseSpec(_Strict):
                 "band_hz": self.band_hz, "tolerance_m": self.tolerance_m,
                 "point_map": {int(k): v for k, v in self.map.items()},
                 "max_effects": self.max_effects, "threshold": self.threshold,
-                "refits": self.refits, "estimator": self.estimator}
+                "refits": self.refits, "estimator": self.estimator, "window": self.window,
+                "fs_hz": self.fs_hz}
 
 
 class CampaignSpec(_Strict):

@@ -18,9 +18,11 @@
 
        delta_BIC = n ln(chi2_current / chi2_candidate) - k ln(n),
 
-   n the real data values and k the candidate's parameters. The best candidate with a
-   physical fit (inside its bounds to two standard deviations) and ``delta_BIC >
-   threshold`` is added; the search repeats until none is (forward selection), or
+   n the independent real data values (the real values over the estimate's correlated
+   lines per value, 1.8 for a Bartlett window) and k the candidate's parameters. The
+   best candidate with a physical fit (inside its bounds, up to a slack) and ``delta_BIC
+   > threshold + 2 ln M`` (M the candidates tried: the best of M noise-only drops is
+   about 2 ln M) is added; the search repeats until none is (forward selection), or
    ``max_effects`` are found. Data at the noise level find nothing.
 5. **After.** The residual views of the final model; the found effects with their
    fitted values, standard deviations (from the Jacobian, scaled by the residual) and
@@ -57,6 +59,7 @@ from truthbench.diagnose.residual import (
 from truthbench.diagnose.screen import point_profiles
 from truthbench.errors import IdentifiabilityError, ModelError
 from truthbench.measure.frfdata import FRFData
+from truthbench.measure.leakage import Estimator
 from truthbench.plants.base import Plant
 from truthbench.update.predictor import APPENDED_PARAMETERS, PredictedTest
 
@@ -73,6 +76,8 @@ class DiagnoseSettings:
     threshold: float = 10.0
     refits: int = 6
     estimator: bool = True
+    window: str | None = None
+    fs_hz: float | None = None
     identify_modes: bool = True
     max_iterations: int = 30
     tolerance: float = 1e-6
@@ -154,6 +159,28 @@ def _with_offsets(problem: Problem, current: Fit) -> Problem:
     return replace(problem, offsets=seen - exact)
 
 
+def _bandwidth_lines(kernel) -> float:
+    """Lines per independent value of a windowed estimate (1 rectangular, about 1.3
+    Bartlett and Hann: :attr:`~truthbench.measure.leakage.LeakageKernel.
+    correlation_lines`); 1 when the estimator is unknown."""
+    return 1.0 if kernel is None else kernel.correlation_lines
+
+
+def _kernel(frf: FRFData, settings: DiagnoseSettings):
+    """The leakage kernel of a data set's estimator: its own (our files), or the one the
+    settings state for data from other tools (``window``, segment = 1 / line spacing,
+    ``fs_hz`` default twice the highest line; a random input: the continuum), or None."""
+    if not settings.estimator:
+        return None
+    if frf.estimator is not None:
+        return frf.estimator.kernel()
+    if settings.window is None or frf.freq_hz.size < 2:
+        return None
+    df = float(np.median(np.diff(frf.freq_hz)))
+    fs = settings.fs_hz or 2.0 * float(frf.freq_hz.max())
+    return Estimator(settings.window, int(round(fs / df)), fs).kernel()
+
+
 def _parts(tests: Sequence[MeasuredTest], vector: np.ndarray) -> list[np.ndarray]:
     out, k = [], 0
     for t in tests:
@@ -229,7 +256,9 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
         Or its fields as keyword arguments: ``candidates`` (registry names to try; default
         all), ``band_hz``, ``tolerance_m`` and ``point_map`` (placing the channels),
         ``max_effects``, ``threshold`` (delta BIC), ``refits``, ``estimator``
-        (compare through the data's leakage when known), ``identify_modes``.
+        (compare through the data's leakage when known), ``window`` and ``fs_hz`` (the
+        segment window of data from other tools, whose files do not say, and their
+        sampling rate), ``identify_modes``.
 
     Returns
     -------
@@ -267,7 +296,7 @@ def _diagnose(data, plant, nominal, parameters, settings):
     model_plant = with_node_stations(placed)
     ptests = tuple(PredictedTest(
         t.name, t.freq_hz, t.actuators, t.sensors, decay_rad_s=t.frf.window_decay_rad_s,
-        kernel=t.frf.estimator.kernel() if settings.estimator and t.frf.estimator else None,
+        kernel=_kernel(t.frf, settings),
         band_hz=t.frf.band_hz) for t in tests)
     values = np.concatenate([t.H.ravel() for t in tests])
     weights = np.concatenate([1.0 / t.sigma.ravel() for t in tests])
@@ -293,10 +322,13 @@ def _diagnose(data, plant, nominal, parameters, settings):
     # not distort (the complex fit may bend the structure to mimic part of it)
     signature_fit = evaluate(problem, (), declared, structural)
     tried: list[Tried] = []
+    thresholds: list[float] = []
     found: list[Found] = []
     accepted: list[Candidate] = []
     cands = catalogue(model_plant, nominal, tests, names=settings.candidates)
-    n = problem.n
+    # the information criterion counts independent values: lines of a windowed estimate
+    # are correlated over the window's noise bandwidth (in lines), so n is divided by it
+    n = problem.n / max((_bandwidth_lines(pt.kernel) for pt in ptests), default=1.0)
     for step in range(settings.max_effects):
         screened = _screen(problem, current, cands, accepted, refs, step, tried)
         if not screened:
@@ -338,8 +370,12 @@ def _diagnose(data, plant, nominal, parameters, settings):
         screened_out = {c.label for _, c, _, _ in screened} - set(results)
         tried.extend(Tried(step, c.label, c.effect, c.options, drop)
                      for drop, c, _, _ in screened if c.label in screened_out)
+        # the threshold grows with the number of candidates tried (look-elsewhere: the
+        # best of M noise-only chi2 drops is about 2 ln M)
+        threshold = settings.threshold + 2.0 * np.log(max(len(screened), 1))
+        thresholds.append(float(threshold))
         ok = sorted((r for r in results.values()
-                     if r and not r[3].startswith("unphysical") and r[0] > settings.threshold),
+                     if r and not r[3].startswith("unphysical") and r[0] > threshold),
                     key=lambda r: -r[0])
         chosen = None
         for _, c, quick, _ in ok[:3]:  # the best whose full refit holds up
@@ -352,7 +388,7 @@ def _diagnose(data, plant, nominal, parameters, settings):
                                    status=f"full refit: {refit_error(exc)}"))
                 continue
             dbic = float(n * np.log(current.chi2 / full.chi2) - len(c.fitted) * np.log(n))
-            if dbic > settings.threshold and not _bounds_ok(c, full.theta, full.std,
+            if dbic > threshold and not _bounds_ok(c, full.theta, full.std,
                                                             c.scales(refs)):
                 chosen = c, full, dbic
                 break
@@ -373,7 +409,8 @@ def _diagnose(data, plant, nominal, parameters, settings):
     after = residual_views(tests, _parts(tests, current.model), len(current.names),
                            modes=_modes(tests, problem, current, data_modes))
     return Diagnosis(tuple(found), before, after, baseline, current, tuple(tried), settings,
-                     tests, model_plant, dict(nominal), declared, n)
+                     tests, model_plant, dict(nominal), declared, problem.n, float(n),
+                     tuple(thresholds))
 
 
 def _adapted(theta: Mapping[str, float], step: Mapping[str, float]) -> dict[str, float]:

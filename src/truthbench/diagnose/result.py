@@ -52,7 +52,11 @@ class Diagnosis:
     nominal : dict
     declared : tuple of str
     n : int
-        Real data values compared.
+        Real data values compared (lines x outputs x inputs x 2).
+    n_independent : float
+        ``n`` over the estimate's correlated lines per value: the n of the criterion.
+    thresholds : tuple of float
+        The delta BIC a candidate had to exceed at each step (``threshold + 2 ln M``).
     """
 
     found: tuple[Found, ...]
@@ -67,6 +71,8 @@ class Diagnosis:
     nominal: dict
     declared: tuple[str, ...]
     n: int
+    n_independent: float = float("nan")
+    thresholds: tuple[float, ...] = ()
 
     @property
     def frf_error_before(self) -> float:
@@ -115,7 +121,8 @@ class Diagnosis:
             "channels": {"before": [asdict(c) for c in self.before.channels],
                          "after": [asdict(c) for c in self.after.channels]},
             "pairs": [asdict(p) for p in self.before.pairs],
-            "n_values": self.n,
+            "n_values": self.n, "n_independent": self.n_independent,
+            "thresholds": list(self.thresholds),
             "settings": {k: v for k, v in asdict(self.settings).items()},
         })
 

@@ -46,12 +46,17 @@ class LeakageKernel:
         ``|W(m delta)|^2``, normalised to sum 1.
     lines_per_bin : int
         Grid lines per segment bin (``fs / segment_samples`` over ``delta_hz``).
+    correlation_lines : float
+        ``1 + 2 sum_k rho_k``, rho_k the correlation of the estimate at bins k apart for
+        noise, ``|DFT(w^2)(k)|^2 / (sum w^2)^2`` (1 for a rectangular window, about 1.3
+        for Bartlett and Hann): the estimate's bins per independent value.
     """
 
     delta_hz: float
     offsets: np.ndarray
     weights: np.ndarray
     lines_per_bin: int
+    correlation_lines: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -138,8 +143,11 @@ def h1_kernel(window: str, segment_samples: int, fs_hz: float, *,
     keep = min(keep, half)
     sel = slice(half - keep, half + keep + 1)
     weights = k[sel] / k[sel].sum()
+    w2 = w * w
+    rho = np.abs(np.fft.fft(w2)) ** 2 / np.sum(w2) ** 2
+    correlation = float(1.0 + 2.0 * np.sum(rho[1: n // 2]))
     return LeakageKernel(fs / (n * lines_per_bin), readonly(m[sel]), readonly(weights),
-                         int(lines_per_bin))
+                         int(lines_per_bin), correlation)
 
 
 def expected_h1(freq_hz, frf: Callable[[np.ndarray], np.ndarray], kernel: LeakageKernel,

@@ -41,8 +41,11 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
             f"{diag.n} real values compared (lines x outputs x inputs x 2)",
             f"- declared parameters (the baseline fits them): "
             f"{', '.join(diag.declared) or 'none'}",
-            f"- criterion: delta BIC (noise scale profiled out) above "
-            f"{sig(diag.settings.threshold)}; at most {diag.settings.max_effects} effects",
+            f"- criterion: delta BIC (noise scale profiled out, "
+            f"{sig(diag.n_independent)} independent values) above "
+            f"{sig(diag.settings.threshold)} + 2 ln(candidates tried) "
+            f"({', '.join(sig(x) for x in diag.thresholds) or '-'} at each step); at most "
+            f"{diag.settings.max_effects} effects",
             ""]
     out += ["## Verdict", ""]
     if not diag.found:

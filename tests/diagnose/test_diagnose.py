@@ -1,0 +1,174 @@
+"""End to end: simulated data with an undeclared effect, diagnosed against the nominal
+model; clean data find nothing; data written by pyuff directly; bad input."""
+
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from truthbench.campaign.model_file import load_model, parse_model
+from truthbench.campaign.spec import parse_campaign
+from truthbench.diagnose import diagnose
+from truthbench.errors import CampaignError, DataFormatError, IdentifiabilityError
+
+from .conftest import ROOT, measured
+
+SUBSET = ("time_delay", "channel_gain", "added_mass", "grounded_dashpot", "joint")
+
+
+def _diagnose(spec, data, **kw):
+    kw.setdefault("identify_modes", False)
+    return diagnose(data, spec.make_plant(), spec.nominal_parameters(),
+                    spec.update.parameters, **kw)
+
+
+def test_clean_data_find_nothing(tube):
+    diag = _diagnose(tube, measured(tube), candidates=SUBSET)
+    assert diag.found == ()
+    assert diag.frf_error_after == diag.frf_error_before
+    # the baseline is at the noise level: the reduced chi2 is of order 1 (coherence
+    # estimated from 4 averages is biased high, so sigma is a little small)
+    assert 0.5 < diag.before.reduced_chi2 < 4
+
+
+@pytest.mark.parametrize("inject,effect,node,param,value", [
+    ("time_delay:delay_s=0.001", "time_delay", None, "delay_s", 0.001),
+    ("added_mass:station=three_quarter,mass_kg=0.05", "added_mass", 15, "mass_kg", 0.05),
+])
+def test_an_undeclared_effect_is_found_located_and_fitted(tube, inject, effect, node, param,
+                                                          value):
+    diag = _diagnose(tube, measured(tube, inject), candidates=SUBSET, max_effects=1)
+    (found,) = diag.found
+    assert found.effect == effect and found.node == node
+    assert found.parameters[param] == pytest.approx(value, rel=0.03)
+    assert diag.frf_error_before > 5 * diag.frf_error_after
+    assert diag.after.reduced_chi2 < 4
+    d = diag.to_dict()
+    json.dumps(d, allow_nan=False)
+    assert d["found"][0]["effect"] == effect
+    assert d["candidates"][0]["candidate"] == found.label
+    assert set(d) >= {"found", "frf_error_before", "frf_error_after", "candidates", "modes"}
+
+
+@pytest.mark.slow
+def test_two_effects_at_once_are_both_found(tube):
+    data = measured(tube, "time_delay:delay_s=0.001",
+                    "added_mass:station=three_quarter,mass_kg=0.05")
+    diag = _diagnose(tube, data, candidates=SUBSET, max_effects=3)
+    assert {f.effect for f in diag.found} == {"time_delay", "added_mass"}
+    mass = next(f for f in diag.found if f.effect == "added_mass")
+    assert abs(mass.node - 15) <= 1
+
+
+@pytest.fixture(scope="module")
+def pyuff_data(tmp_path_factory):
+    """The tube's two tests with a 40 g mass at node 15, FRFs of 20 Bartlett averages of
+    periodic random records, written with pyuff directly in mm and kN with 2411
+    geometry whose point numbers are not the model's nodes."""
+    import pyuff
+
+    d = tomllib.loads((ROOT / "campaigns" / "quickstart.toml").read_text())
+    for t in d["tests"]:
+        t.update(record_s=80.0, averages=20, window="bartlett")
+    spec = parse_campaign(d)
+    data = measured(spec, "added_mass:station=three_quarter,mass_kg=0.04")
+    length, force = 1000.0, 1e-3  # file units per metre, per newton
+    points = {}
+    for frf in data:
+        for c in (*frf.outputs, *frf.inputs):
+            points.setdefault(c.station, (300 + len(points), c.coordinates_m))
+    path = tmp_path_factory.mktemp("uff") / "tube_mm_kN.uff"
+    sets = [pyuff.prepare_164(units_code=9, units_description="mm kN", temp_mode=1,
+                              length=length, force=force, temp=1.0, temp_offset=273.15)]
+    nums = [n for n, _ in points.values()]
+    xyz = np.array([p for _, p in points.values()]) * length
+    sets.append(pyuff.prepare_2411(node_nums=np.array(nums), def_cs=np.zeros(len(nums), int),
+                                   disp_cs=np.zeros(len(nums), int),
+                                   color=np.ones(len(nums), int),
+                                   x=xyz[:, 0], y=xyz[:, 1], z=xyz[:, 2]))
+    for case, frf in enumerate(data, start=1):
+        ref = points[frf.inputs[0].station][0]
+        for i, out in enumerate(frf.outputs):
+            rsp = points[out.station][0]
+            common = {"type": 58, "rsp_node": rsp, "rsp_dir": 3, "ref_node": ref,
+                      "ref_dir": 3, "rsp_ent_name": out.label, "ref_ent_name": "shaker",
+                      "id1": f"test {case}", "load_case": case, "abscissa_spacing": 1,
+                      "abscissa_spec_data_type": 18, "abscissa_axis_units_lab": "Hz",
+                      "x": frf.freq_hz.copy()}
+            sets.append({**common, "func_type": 4, "ordinate_spec_data_type": 12,
+                         "ordinate_axis_units_lab": "mm/s^2", "orddenom_spec_data_type": 13,
+                         "orddenom_axis_units_lab": "kN",
+                         "data": frf.H[:, i, 0] * (length / force)})
+            sets.append({**common, "func_type": 6, "ordinate_spec_data_type": 0,
+                         "orddenom_spec_data_type": 0, "data": frf.coherence[:, i, 0].copy()})
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    return path, spec
+
+
+@pytest.mark.slow
+def test_uff_written_by_pyuff_is_read_mapped_and_diagnosed(pyuff_data, tmp_path):
+    from truthbench.campaign.store import load_frf
+    from truthbench.cli import main
+
+    path, spec = pyuff_data
+    data = load_frf(path, n_averages=20)
+    assert len(data) == 2 and all(d.n_averages == 20 for d in data)
+    assert {c.point for d in data for c in d.outputs} == {300, 301, 302, 303}
+    model = tmp_path / "tube.toml"
+    model.write_text('[plant]\ntype = "free_free_beam"\nn_elements = 20\n'
+                     '[plant.parameters]\nE_pa = 68.9e9\nrho_kg_m3 = 2700.0\n'
+                     'modal_damping_ratio = 0.01\nsuspension_stiffness_n_m = 200.0\n'
+                     '[update]\nparameters = ["E_pa", "rho_kg_m3"]\n'
+                     '[diagnose]\nwindow = "bartlett"\nfs_hz = 1024.0\nmax_effects = 1\n'
+                     f'candidates = {list(SUBSET)}\n')
+    spec_m = load_model(model)
+    diag = diagnose(data, spec_m.make_plant(), spec_m.nominal_parameters(),
+                    spec_m.update.parameters, identify_modes=False,
+                    **spec_m.diagnose.settings())
+    (found,) = diag.found
+    assert found.effect == "added_mass" and found.node == 15
+    assert found.parameters["mass_kg"] == pytest.approx(0.04, rel=0.05)
+    out = tmp_path / "report"
+    assert main(["diagnose", str(path), "--model", str(model), "--out", str(out),
+                 "--json"]) == 0
+    assert (out / "diagnosis.html").exists() and (out / "diagnosis.md").exists()
+
+
+def test_fewer_values_than_parameters_is_refused(tube):
+    data = measured(tube)[0].lines(np.isin(np.arange(measured(tube)[0].n_freq), [40]))
+    data = type(data)(data.name, data.freq_hz, data.H[:, :1], data.outputs[:1], data.inputs,
+                      coherence=data.coherence[:, :1], n_averages=4)
+    with pytest.raises(IdentifiabilityError, match="2 real data values .* cannot determine 2 "
+                                                   "declared parameters"):
+        _diagnose(tube, [data])
+
+
+def test_model_file_errors_name_the_key(tmp_path):
+    base = {"plant": {"type": "free_free_beam"}}
+    with pytest.raises(CampaignError, match="key 'diagnose.candidates'.*'gremlins'"):
+        parse_model({**base, "diagnose": {"candidates": ["gremlins"]}}, "m.toml")
+    with pytest.raises(CampaignError, match="key 'update.parameters'.*'Q_pa'"):
+        parse_model({**base, "update": {"parameters": ["Q_pa"]}}, "m.toml")
+    with pytest.raises(CampaignError, match="key 'diagnose.map'.*point numbers"):
+        parse_model({**base, "diagnose": {"map": {"tip": 1.0}}}, "m.toml")
+    spec = parse_model({**base, "sensors": [], "tests": []}, "m.toml")
+    assert spec.ignored == ("sensors", "tests")
+    bad = tmp_path / "b.toml"
+    bad.write_bytes(b"\xff\xfe[plant]")
+    with pytest.raises(CampaignError, match="b.toml: not a text"):
+        load_model(bad)
+
+
+def test_cli_bad_data_writes_nothing(tmp_path, capsys):
+    from truthbench.cli import main
+
+    out = tmp_path / "never"
+    code = main(["diagnose", str(tmp_path / "missing.uff"), "--model",
+                 str(ROOT / "campaigns" / "quickstart.toml"), "--out", str(out)])
+    assert code == 2 and not out.exists()
+    assert "missing.uff" in capsys.readouterr().err
+    with pytest.raises(DataFormatError):
+        from truthbench.campaign.store import load_frf
+
+        load_frf(tmp_path / "missing.uff")
