@@ -168,7 +168,33 @@ def test_cli_bad_data_writes_nothing(tmp_path, capsys):
                  str(ROOT / "campaigns" / "quickstart.toml"), "--out", str(out)])
     assert code == 2 and not out.exists()
     assert "missing.uff" in capsys.readouterr().err
-    with pytest.raises(DataFormatError):
-        from truthbench.campaign.store import load_frf
+    from truthbench.campaign.store import load_frf
 
+    with pytest.raises(FileNotFoundError, match="missing.uff"):
         load_frf(tmp_path / "missing.uff")
+    corrupt = tmp_path / "corrupt.uff"
+    corrupt.write_text("    -1\n    58\nnot a dataset\n")
+    with pytest.raises(DataFormatError, match="corrupt.uff"):
+        load_frf(corrupt)
+
+
+@pytest.mark.slow
+def test_coulomb_friction_is_found_at_its_joint_and_its_force_fitted():
+    """Friction at the hub's bearing: an equivalent dashpot per test (the describing
+    function of the force at that test's response level), one friction force shared."""
+    d = tomllib.loads((ROOT / "campaigns" / "hub_beam.toml").read_text())
+    d["truth"] = {}
+    d["tests"] = d["tests"][:4]
+    for t in d["tests"]:
+        t.update(record_s=32.0, averages=4, effects=[])
+        t.pop("assembly", None)
+        t.pop("time_h", None)
+    d["update"]["parameters"] = ["E_pa", "hub_inertia_kg_m2"]
+    spec = parse_campaign(d)
+    data = measured(spec, "coulomb_friction:node=0,direction=rz,force_n=0.1")
+    diag = _diagnose(spec, data, max_effects=1)
+    (found,) = diag.found
+    assert found.effect == "coulomb_friction" and found.node == 0
+    # the equivalent-linear model holds to the describing function's accuracy
+    assert found.parameters["force_n"] == pytest.approx(0.1, rel=0.1)
+    assert diag.frf_error_before > 2 * diag.frf_error_after

@@ -51,7 +51,7 @@ def test_screened_drop_is_the_rebuilt_models(effect, param, value, monkeypatch):
     assert strength == pytest.approx(value, rel=1e-12)
     assert drop == pytest.approx(current.chi2, rel=1e-8)
     # the direct rebuild agrees: the model with the attachment reproduces the data
-    pred = problem.predict((at.term(),))
+    pred = problem.predict(at.terms())
     rebuilt = problem.chi2(np.asarray(pred({**current.theta, at.keys()[0]: value})))
     assert rebuilt <= 1e-16 * current.chi2 * t.H.size
     assert got[other.label][0] < 0.99 * current.chi2

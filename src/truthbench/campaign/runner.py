@@ -92,7 +92,8 @@ def measure_test(spec: CampaignSpec, j: int, u, y, params: dict, *,
                   notes=(f"H1, {test.window} window, {est.n_averages} averages of "
                          f"{est.nperseg} samples at {test.fs_hz:g} Hz",),
                   estimator=Estimator(test.window, est.nperseg, test.fs_hz,
-                                      n if periodic else None))
+                                      n if periodic else None),
+                  input_rms=tuple(float(v) for v in np.sqrt(np.mean(u**2, axis=1))))
     record = TestRecord(test.name, frf, u, y, test.fs_hz, dict(params))
     return identify_record(spec, j, record) if identify else record
 

@@ -215,7 +215,9 @@ def _write_test(t, rec) -> None:
                "excitation": frf.excitation, "window_decay_rad_s": frf.window_decay_rad_s,
                "notes": json.dumps(list(frf.notes)),
                "estimator": json.dumps(None if frf.estimator is None
-                                       else frf.estimator.to_dict())})
+                                       else frf.estimator.to_dict()),
+               "input_rms": json.dumps(None if frf.input_rms is None
+                                       else list(frf.input_rms))})
     if rec.coherence is not None:
         _dataset(t, "coherence", rec.coherence, "-")
     for name, chans in (("u", frf.inputs), ("y", frf.outputs)):
@@ -482,6 +484,9 @@ def _read_test(t, spec, j):
             meta = dict(n_averages=n_avg, band_hz=band, excitation=str(ha["excitation"]),
                         window_decay_rad_s=float(ha["window_decay_rad_s"]),
                         notes=tuple(json.loads(ha["notes"])))
+            rms = json.loads(ha.get("input_rms", "null"))
+            if rms is not None:
+                meta["input_rms"] = tuple(rms)
             est = json.loads(ha.get("estimator", "null"))
             if est is not None:
                 from truthbench.measure.leakage import Estimator

@@ -51,6 +51,11 @@ class Candidate:
     fitted : tuple of FitParam
     node : int or None
         The model node of a located candidate.
+    levels : tuple of (test, coefficient), optional
+        Coulomb friction only: each test's equivalent viscous damping per newton of
+        friction, ``sqrt(2 / pi) / sigma_v`` with ``sigma_v`` the RMS velocity at the
+        friction's DOF in that test (statistical linearisation for a Gaussian response:
+        ``E[F_c sign(v) v] / E[v^2]``), set by :func:`bind_levels`.
     """
 
     effect: str
@@ -58,19 +63,31 @@ class Candidate:
     label: str
     fitted: tuple[FitParam, ...]
     node: int | None = None
+    levels: tuple[tuple[str, float], ...] | None = None
 
     @property
     def spec(self) -> EffectSpec:
         return parse_effect({"name": self.effect, **self.options}, self.label, "diagnosis")
 
-    def term(self, start: Mapping[str, float] | None = None) -> EffectTerm:
-        """The candidate as an effect term of the predictor (fitted names are the
-        :class:`FitParam` names, keyed ``label.name``)."""
-        form = EFFECTS[self.effect].diagnosis
+    def terms(self, start: Mapping[str, float] | None = None) -> tuple[EffectTerm, ...]:
+        """The candidate as effect terms of the predictor (fitted names are the
+        :class:`FitParam` names, keyed ``label.name``): one term, or for friction one
+        equivalent dashpot per test sharing the friction force."""
         init = {p.name: p.start for p in self.fitted}
         init.update(start or {})
-        return EffectTerm(self.label, self.spec, tuple(p.name for p in self.fitted),
-                          form.to_values, init)
+        names = tuple(p.name for p in self.fitted)
+        if self.effect == "coulomb_friction":
+            if self.levels is None:
+                raise ModelError(f"candidate {self.label!r}: the tests' levels are not "
+                                 f"bound (bind_levels)")
+            dashpot = parse_effect({"name": "grounded_dashpot", **self.options},
+                                   self.label, "diagnosis")
+            return tuple(EffectTerm(
+                f"{self.label}/{test}", dashpot, names,
+                lambda f, k=k: {"damping_n_s_m": k * f["force_n"]}, init, (test,),
+                self.label) for test, k in self.levels)
+        form = EFFECTS[self.effect].diagnosis
+        return (EffectTerm(self.label, self.spec, names, form.to_values, init),)
 
     def keys(self) -> tuple[str, ...]:
         return tuple(f"{self.label}.{p.name}" for p in self.fitted)
@@ -81,7 +98,9 @@ class Candidate:
 
     def effect_values(self, fitted: Mapping[str, float]) -> dict[str, float]:
         """The effect's own parameter values for fitted values (by own name)."""
-        return self.term().values({f"{self.label}.{k}": v for k, v in fitted.items()})
+        if self.effect == "coulomb_friction":
+            return {"force_n": float(fitted["force_n"])}
+        return self.terms()[0].values({f"{self.label}.{k}": v for k, v in fitted.items()})
 
 
 def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,
@@ -150,6 +169,8 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
                          f"{', '.join(sorted(diagnosable))}")
     measured = sorted({s.direction for t in tests for s in t.sensors} |
                       {a.direction for t in tests for a in t.actuators})
+    levels_known = all(t.frf.input_rms is not None and t.frf.band_hz is not None
+                       for t in tests)
     translations = [d for d in measured if d in ("x", "y", "z")]
     nodes = range(plant.n_elements + 1)
     free = {k: _free_directions(plant, nominal, k) for k in nodes}
@@ -162,6 +183,8 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
             continue  # no suspension to be wrong
         if form.directions == "translation":
             dirs = translations
+        elif form.directions == "measured":
+            dirs = measured
         elif form.directions == "bending":
             dirs = [_BENDING[d] for d in translations if d in _BENDING]
         else:
@@ -170,6 +193,8 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
             for k in nodes:
                 for d in dirs:
                     if d is not None and d not in free[k] and form.directions != "bending":
+                        continue
+                    if name == "coulomb_friction" and not levels_known:
                         continue
                     if d is None and not free[k] & {"x", "y", "z"}:
                         continue
@@ -184,6 +209,46 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
                 out.append(Candidate(name, {"sensor": lab}, f"{name}@{lab}", form.fitted))
         else:
             out.append(Candidate(name, {}, name, form.fitted))
+    return out
+
+
+def bind_levels(cands, hardware_of, tests) -> list[Candidate]:
+    """Friction candidates with each test's level coefficient (:attr:`Candidate.levels`)
+    from the current model: ``sigma_v^2 = sum_i sum_k |j omega R_i(f_k)|^2 G_i df`` over
+    the test's lines, ``R_i`` the receptance from input i to the friction's DOF and
+    ``G_i = rms_i^2 / bandwidth`` the input's flat one-sided PSD in its band. Others are
+    returned unchanged.
+
+    ``hardware_of(test)`` gives the current model's hardware instrumented with the
+    test's inputs.
+    """
+    out = []
+    for c in cands:
+        if c.effect != "coulomb_friction":
+            out.append(c)
+            continue
+        levels = []
+        for t in tests:
+            hw = hardware_of(t)
+            model = hw.model
+            label = f"n{c.node}.{c.options['direction']}"
+            if label not in model.dof_labels:
+                break
+            E = np.zeros((1, model.n_dofs))
+            E[0, model.dof_labels.index(label)] = 1.0
+            f = t.freq_hz
+            n_in = len(t.actuators)
+            R = model.with_io(B=model.B[:, :n_in], C_out=E, quantities=("velocity",)
+                              ).frf(f, modes=hw.modes)[:, 0, :]  # (n_f, n_in)
+            lo, hi = t.frf.band_hz
+            psd = np.asarray(t.frf.input_rms, float) ** 2 / max(hi - lo, 1e-300)
+            df = float(np.median(np.diff(f))) if f.size > 1 else 1.0
+            sigma = float(np.sqrt(np.sum(np.abs(R) ** 2 * psd[None, :]) * df))
+            if not sigma > 0:
+                break
+            levels.append((t.name, float(np.sqrt(2 / np.pi) / sigma)))
+        else:
+            out.append(replace(c, levels=tuple(levels)))
     return out
 
 

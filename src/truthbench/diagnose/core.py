@@ -37,7 +37,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from truthbench.diagnose.candidates import Candidate, catalogue, references, with_node_stations
+from truthbench.diagnose.candidates import (
+    Candidate,
+    bind_levels,
+    catalogue,
+    references,
+    with_node_stations,
+)
 from truthbench.diagnose.data import MeasuredTest, prepare
 from truthbench.diagnose.fit import (
     Fit,
@@ -308,6 +314,8 @@ def _diagnose(data, plant, nominal, parameters, settings):
     f_max = max(float(t.freq_hz.max()) for t in tests)
     refs = references(model_plant, nominal, f_max,
                       f_min_hz=min(float(t.freq_hz.min()) for t in tests))
+    levels = [r for t in tests if t.frf.input_rms is not None for r in t.frf.input_rms]
+    refs["force"] = float(np.mean(levels)) if levels else 1.0
     problem = Problem(model_plant, dict(nominal), ptests, values, weights, declared,
                       {k: refs["time"] for k in declared if k == "delay_s"},
                       sum(t.n_pairs for t in tests), None,
@@ -330,6 +338,9 @@ def _diagnose(data, plant, nominal, parameters, settings):
     # are correlated over the window's noise bandwidth (in lines), so n is divided by it
     n = problem.n / max((_bandwidth_lines(pt.kernel) for pt in ptests), default=1.0)
     for step in range(settings.max_effects):
+        pred = problem.predictor(current.terms)
+        cands = bind_levels(cands, lambda t, pred=pred, cur=current: pred.hardware(
+            cur.theta, t.actuators, t.sensors, test=t.name), tests)
         screened = _screen(problem, current, cands, accepted, refs, step, tried)
         if not screened:
             break
@@ -382,6 +393,8 @@ def _diagnose(data, plant, nominal, parameters, settings):
             pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
             try:
                 full = fit(pc, quick.terms, start=quick.theta)
+                if c.levels is not None:  # friction: the levels with its own damping in
+                    c, full = _relevel(pc, c, accepted, full, tests)
             except (IdentifiabilityError, ModelError, ValueError,
                     np.linalg.LinAlgError) as exc:
                 tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
@@ -411,6 +424,20 @@ def _diagnose(data, plant, nominal, parameters, settings):
     return Diagnosis(tuple(found), before, after, baseline, current, tuple(tried), settings,
                      tests, model_plant, dict(nominal), declared, problem.n, float(n),
                      tuple(thresholds))
+
+
+def _relevel(problem, c: Candidate, accepted, fit_, tests, passes: int = 2):
+    """Refit a friction candidate with its levels recomputed from the model that
+    includes its own equivalent damping (the statistical linearisation's fixed point:
+    friction lowers the response it is linearised at)."""
+    for _ in range(passes):
+        pred = problem.predictor(fit_.terms)
+        (c,) = bind_levels([c], lambda t, pred=pred, th=fit_.theta: pred.hardware(
+            th, t.actuators, t.sensors, test=t.name), tests)
+        own = _fitted_own(c, fit_.theta)
+        terms = tuple(x for a in accepted for x in a.terms(start=_fitted_own(a, fit_.theta)))
+        fit_ = fit(problem, terms + c.terms(start=own), start=fit_.theta)
+    return c, fit_
 
 
 def _adapted(theta: Mapping[str, float], step: Mapping[str, float]) -> dict[str, float]:
@@ -465,8 +492,8 @@ def _line_search(problem, current, accepted, c, drop, guess, sizes):
     size = np.array([sizes[k] for k in c.keys()])
     if not np.any(step):  # clamped at a bound: try it at its natural sizes instead
         step = size
-    terms = tuple(a.term(start=_fitted_own(a, current.theta)) for a in accepted)
-    predict = problem.predict(terms + (c.term(),))
+    terms = tuple(x for a in accepted for x in a.terms(start=_fitted_own(a, current.theta)))
+    predict = problem.predict(terms + c.terms())
     best = (drop, guess)
     low = np.array([-np.inf if p.minimum is None else p.minimum for p in c.fitted])
     points = [start + a * step for a in LINE_STEPS]
@@ -507,7 +534,7 @@ def _screen(problem, current, cands, accepted, refs, step, tried, *, per_effect=
         scales = c.scales(refs)
         pc = replace(problem, scales={**problem.scales, **scales})
         try:
-            cols = candidate_columns(pc, current, c.term(), scales)
+            cols = candidate_columns(pc, current, c.terms(), scales)
         except (ModelError, ValueError) as exc:
             tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
                                status=refit_error(exc)))
@@ -539,10 +566,10 @@ def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
     scales = {k: max(v, abs(start[k.rsplit(".", 1)[1]]))
               for k, v in c.scales(refs).items()}
     pc = replace(problem, scales={**problem.scales, **scales})
-    terms = tuple(a.term(start=_fitted_own(a, current.theta)) for a in accepted)
+    terms = tuple(x for a in accepted for x in a.terms(start=_fitted_own(a, current.theta)))
     theta = current.theta if declared_start is None else declared_start
     try:
-        cf = fit(pc, terms + (c.term(start=start),), start=theta, quick=True)
+        cf = fit(pc, terms + c.terms(start=start), start=theta, quick=True)
     except (IdentifiabilityError, ModelError, ValueError, np.linalg.LinAlgError) as exc:
         tried.append(Tried(step, c.label, c.effect, c.options, drop, status=refit_error(exc)))
         return None

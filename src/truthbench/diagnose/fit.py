@@ -182,7 +182,7 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         The data cannot separate the parameters (with which combination).
     """
     terms = tuple(terms)
-    names = tuple(problem.declared) + tuple(k for t in terms for k in t.keys())
+    names = tuple(problem.declared) + _keys(terms)
     theta0 = {**problem.theta0(terms), **dict(start or {})}
     predict = problem.predict(terms)
     s = problem.settings
@@ -222,7 +222,7 @@ def fit_magnitude(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         Every parameter's value at the magnitude fit.
     """
     terms = tuple(terms)
-    names = tuple(problem.declared) + tuple(k for t in terms for k in t.keys())
+    names = tuple(problem.declared) + _keys(terms)
     theta0 = {**problem.theta0(terms), **dict(start or {})}
     predict = problem.predict(terms)
     s = problem.settings
@@ -258,18 +258,25 @@ def evaluate(problem: Problem, terms: Sequence[EffectTerm], names: Sequence[str]
                model)
 
 
-def candidate_columns(problem: Problem, current: Fit, term: EffectTerm,
+def _keys(terms: Sequence[EffectTerm]) -> tuple[str, ...]:
+    """The fitted keys of ``terms``, each once (terms may share parameters)."""
+    return tuple(dict.fromkeys(k for t in terms for k in t.keys()))
+
+
+def candidate_columns(problem: Problem, current: Fit, terms: Sequence[EffectTerm],
                       scales: Mapping[str, float], step: float = 1e-3) -> np.ndarray:
-    """Weighted, stacked sensitivities of the model at ``current`` to ``term``'s fitted
-    parameters (forward differences of ``step`` natural sizes from their start), per unit
-    of each parameter, shape (n, k)."""
-    terms = current.terms + (term,)
-    predict = problem.predict(terms)
-    theta = {**current.theta, **{k: v for k, v in problem.predictor(terms).theta0.items()
-                                 if k in term.keys()}}
+    """Weighted, stacked sensitivities of the model at ``current`` to the fitted
+    parameters of a candidate's ``terms`` (forward differences of ``step`` natural sizes
+    from their start), per unit of each parameter, shape (n, k)."""
+    terms = tuple(terms)
+    keys = _keys(terms)
+    both = current.terms + terms
+    predict = problem.predict(both)
+    theta = {**current.theta, **{k: v for k, v in problem.predictor(both).theta0.items()
+                                 if k in keys}}
     base = np.asarray(predict(theta))
     cols = []
-    for key in term.keys():
+    for key in keys:
         h = step * scales[key]
         moved = dict(theta)
         moved[key] = theta[key] + h

@@ -67,10 +67,10 @@ class FitParam:
     name : str
         The fitted parameter (an effect parameter, or another parameterisation, see
         :attr:`Diagnosable.to_values`).
-    reference : {"mass", "stiffness", "damping", "rotary_damping", "time", "unit"}
+    reference : {"mass", "stiffness", "damping", "rotary_damping", "time", "force", "unit"}
         The model quantity its natural size is a fraction of (total mass, modal stiffness
-        and damping of the first elastic mode, 1 / (2 pi f_max), 1): sets the fit's
-        step and trust region, not the answer.
+        and damping of the first elastic mode, 1 / (2 pi f_max), the inputs' mean RMS,
+        1): sets the fit's step and trust region, not the answer.
     factor : float
         The natural size as a fraction of ``reference``.
     start : float
@@ -94,8 +94,9 @@ class Diagnosable:
 
     ``location`` is ``"station"`` (tried at every node of the model), ``"sensor"`` (at
     every output channel) or None (no location). ``directions`` is ``"translation"``
-    (tried in every measured translational direction), ``"bending"`` (the bending
-    rotation of every measured transverse direction: z -> ry, y -> rz) or None.
+    (tried in every measured translational direction), ``"measured"`` (every measured
+    direction, rotations included), ``"bending"`` (the bending rotation of every measured
+    transverse direction: z -> ry, y -> rz) or None.
     ``to_values(fitted) -> effect values`` turns the fitted parameters into the effect's
     own (default: they are the effect's own).
     """

@@ -12,7 +12,13 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from truthbench.effects.base import Effect, EffectParam, register_effect
+from truthbench.effects.base import (
+    Diagnosable,
+    Effect,
+    EffectParam,
+    FitParam,
+    register_effect,
+)
 from truthbench.simulate.nonlinear import (
     AmplitudeDependentDamping,
     CoulombFriction,
@@ -41,6 +47,12 @@ class CoulombFrictionEffect(_Grounded):
                                   "effect shrinks as the excitation grows")
     params: ClassVar = (EffectParam("force_n", 0.0, "friction force, N (N m at a rotation)",
                                     0.0),)
+    diagnosis: ClassVar = Diagnosable(
+        (FitParam("force_n", "force", 0.05, minimum=0.0),), location="station",
+        directions="measured")
+    """Diagnosed through its statistical linearisation: in each test a grounded dashpot
+    ``sqrt(2 / pi) F_c / sigma_v`` (sigma_v the RMS velocity at the DOF in that test),
+    so its damping falls as the excitation level rises (:mod:`truthbench.diagnose`)."""
 
     def law(self, values):
         return CoulombFriction(values["force_n"])

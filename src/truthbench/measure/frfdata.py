@@ -166,6 +166,9 @@ class FRFData:
     estimator : Estimator, optional
         The averaged estimate's window and segments, when known (a model is compared
         with the data through them, :mod:`truthbench.measure.leakage`).
+    input_rms : tuple of float, optional
+        The RMS of each input over the record (N or N m), when known: the excitation
+        level, which amplitude-dependent effects (friction) depend on.
     notes : tuple of str
         What was done to the data (windows, segments, conversions).
 
@@ -184,6 +187,7 @@ class FRFData:
     window_decay_rad_s: float = 0.0
     notes: tuple[str, ...] = field(default_factory=tuple)
     estimator: Estimator | None = None
+    input_rms: tuple[float, ...] | None = None
 
     def __post_init__(self):
         where = f"FRFData {self.name!r}"
@@ -225,6 +229,12 @@ class FRFData:
                                  f"{self.n_averages!r}")
             object.__setattr__(self, "n_averages", n)
         check_choice("excitation", self.excitation, EXCITATIONS, where=where)
+        if self.input_rms is not None:
+            rms = tuple(float(v) for v in self.input_rms)
+            if len(rms) != len(inputs) or not all(np.isfinite(rms)):
+                raise ValueError(f"{where}: input_rms must hold one finite value per input "
+                                 f"({len(inputs)}); got {self.input_rms!r}")
+            object.__setattr__(self, "input_rms", rms)
         object.__setattr__(self, "notes", tuple(self.notes))
         if self.band_hz is not None:
             lo, hi = (float(v) for v in self.band_hz)

@@ -112,6 +112,12 @@ class EffectTerm:
         ``to_values(fitted) -> effect parameter values`` (default: the identity).
     start : mapping, optional
         Starting values of the fitted parameters.
+    tests : tuple of str, optional
+        The tests (by name) the effect acts in (default all): a model form that differs
+        by test, e.g. friction linearised at each test's level.
+    share : str, optional
+        The prefix of the fitted parameters' keys (default ``label``): terms with the
+        same ``share`` fit the same parameters (one friction force for every test).
     """
 
     label: str
@@ -119,6 +125,8 @@ class EffectTerm:
     free: tuple[str, ...] | None = None
     to_values: Callable[[Mapping[str, float]], Mapping[str, float]] | None = None
     start: Mapping[str, float] | None = None
+    tests: tuple[str, ...] | None = None
+    share: str | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -126,8 +134,15 @@ class EffectTerm:
         return tuple(self.free) if self.free is not None else tuple(
             p.name for p in self.spec.effect.params)
 
+    @property
+    def prefix(self) -> str:
+        return self.share if self.share is not None else self.label
+
     def keys(self) -> tuple[str, ...]:
-        return tuple(f"{self.label}.{n}" for n in self.names)
+        return tuple(f"{self.prefix}.{n}" for n in self.names)
+
+    def acts_in(self, test: str) -> bool:
+        return self.tests is None or test in self.tests
 
     def initial(self) -> dict[str, float]:
         """Starting fitted values, by own name."""
@@ -137,7 +152,7 @@ class EffectTerm:
 
     def fitted(self, theta: Mapping[str, float]) -> dict[str, float]:
         """The fitted parameters in ``theta`` (``initial`` where absent), by own name."""
-        return {n: float(theta.get(f"{self.label}.{n}", v))
+        return {n: float(theta.get(f"{self.prefix}.{n}", v))
                 for n, v in self.initial().items()}
 
     def values(self, theta: Mapping[str, float]) -> dict[str, float]:
@@ -187,7 +202,7 @@ class FRFPredictor:
         object.__setattr__(self, "_actuators", tuple(acts))
         object.__setattr__(self, "_sensors", tuple(sens))
         object.__setattr__(self, "_per_test", any(
-            t.spec.effect.per_test_channels for t in self.effects))
+            t.spec.effect.per_test_channels or t.tests is not None for t in self.effects))
 
     # ---- what it can vary ---------------------------------------------------------
     @property
@@ -209,7 +224,7 @@ class FRFPredictor:
         out = dict(self.nominal)
         out.update(APPENDED_PARAMETERS)
         for term in self.effects:
-            out.update({f"{term.label}.{k}": v for k, v in term.initial().items()})
+            out.update({f"{term.prefix}.{k}": v for k, v in term.initial().items()})
         return out
 
     @property
@@ -244,15 +259,18 @@ class FRFPredictor:
         return {**self.nominal, **{k: v for k, v in theta.items() if k in names}}
 
     def hardware(self, theta: Mapping[str, float], actuators: Sequence[Actuator] | None = None,
-                 sensors: Sequence[Sensor] | None = None) -> Hardware:
+                 sensors: Sequence[Sensor] | None = None, *, test: str | None = None
+                 ) -> Hardware:
         """The model at ``theta`` as hardware, instrumented with ``actuators`` and
-        ``sensors`` (default: the union of the tests')."""
+        ``sensors`` (default: the union of the tests'), with the effects that act in
+        ``test`` (default: those that act in every test)."""
         builder = SetupBuilder(
             plant=self.plant, parameters=self.plant.resolve(self.plant_parameters(theta)),
             actuators=self._actuators if actuators is None else tuple(actuators),
             sensors=self._sensors if sensors is None else tuple(sensors))
         for term in self.effects:
-            builder.add(term.spec, term.values(theta), term.label)
+            if (term.tests is None) if test is None else term.acts_in(test):
+                builder.add(term.spec, term.values(theta), term.label)
         builder.delay_s += float(theta.get("delay_s", 0.0))
         builder.bias_gain *= float(theta.get("sensor_gain", 1.0))
         return builder.freeze()
@@ -278,7 +296,7 @@ class FRFPredictor:
         hw = None if self._per_test else self.hardware(theta)
         for t in self.tests:
             if self._per_test:
-                one = self.hardware(theta, t.actuators, t.sensors)
+                one = self.hardware(theta, t.actuators, t.sensors, test=t.name)
 
                 def frf(f, one=one, t=t):
                     return one.frf(f, decay_rad_s=t.decay_rad_s,
