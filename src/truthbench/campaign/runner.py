@@ -200,11 +200,12 @@ def _weights(spec: CampaignSpec, records, masks) -> np.ndarray | None:
     return np.concatenate([p.ravel() for p in parts])
 
 
-def measured_modes(spec: CampaignSpec, records, params: dict) -> list[MeasuredModes]:
+def measured_modes(spec: CampaignSpec, records, params: dict, *, build=None
+                   ) -> list[MeasuredModes]:
     """Identified modes of every test as :class:`~truthbench.update.MeasuredModes` at
     the model DOFs its (non-strain) sensors sit on."""
     plant = spec.make_plant()
-    labels = plant.build(params).dof_labels
+    labels = (build or plant.build)(params).dof_labels
     out = []
     for j, rec in enumerate(records):
         if rec.modes is None or len(rec.modes.freq_hz) == 0:
@@ -222,34 +223,62 @@ def measured_modes(spec: CampaignSpec, records, params: dict) -> list[MeasuredMo
     return out
 
 
-def update_problem(spec: CampaignSpec, records, updater) -> tuple[UpdateProblem, list]:
+class _MemoBuild:
+    """``plant.build(theta)`` remembering its last few models by parameter values (the
+    sensitivity updater builds the same parameters more than once per iteration)."""
+
+    def __init__(self, plant, size: int = 4):
+        self.plant, self.size, self._cache = plant, size, {}
+
+    def __call__(self, theta):
+        try:
+            key = tuple(sorted((k, float(v)) for k, v in theta.items()))
+        except (TypeError, ValueError):
+            return self.plant.build(theta)
+        if key not in self._cache:
+            self._cache[key] = self.plant.build(theta)
+            while len(self._cache) > self.size:
+                self._cache.pop(next(iter(self._cache)))
+        return self._cache[key]
+
+
+def update_problem(spec: CampaignSpec, records, updater, *, full: FRFPredictor | None = None
+                   ) -> tuple[UpdateProblem, list]:
     """The :class:`~truthbench.update.UpdateProblem` of a trial's data with the inputs
     ``updater`` needs (FRFs and a predictor; identified modes and a model builder), and
-    the lines used per test."""
+    the lines used per test. ``full``: the trial's predictor at all lines, whose cache of
+    models the update's predictor shares."""
     masks = update_masks(spec, records)
     names = tuple(spec.update.parameters)
-    pred = predictor(spec, records, masks)
+    if full is not None:
+        pred = full.with_tests([replace(t, freq_hz=rec.freq_hz[m]) for t, rec, m in
+                                zip(full.tests, records, masks, strict=True)])
+    else:
+        pred = predictor(spec, records, masks)
     nominal = spec.nominal_parameters()
     theta0 = {**nominal, **{k: v for k, v in pred.theta0.items()
                             if k in names and k not in nominal}}
     frf, modes = "frf" in updater.needs, "modes" in updater.needs
     plant = pred.plant
+    build = _MemoBuild(plant) if modes else None
     problem = UpdateProblem(
         names=names, theta0=theta0,
-        predict_frf=pred.predict_vector if frf else None,
+        predict_frf=pred.vector_function() if frf else None,
         frf_data=np.concatenate([rec.H[m].ravel() for rec, m in
                                  zip(records, masks, strict=True)]) if frf else None,
         frf_weights=_weights(spec, records, masks) if frf else None,
         n_pairs=sum(rec.H.shape[1] * rec.H.shape[2] for rec in records) if frf else None,
         additive=pred.additive_scales(names) if frf else None,
-        build_model=plant.build if modes else None,
-        measured=measured_modes(spec, records, nominal) if modes else None)
+        build_model=build,
+        measured=measured_modes(spec, records, nominal, build=build) if modes else None)
     return problem, masks
 
 
-def update_trial(spec: CampaignSpec, records, method: str | None = None):
+def update_trial(spec: CampaignSpec, records, method: str | None = None, *,
+                 full: FRFPredictor | None = None):
     """Update the nominal model against the trial's data with one registered updater
-    configured from the campaign's ``[update]`` table (default: the primary method).
+    configured from the campaign's ``[update]`` table (default: the primary method);
+    ``full`` as in :func:`update_problem`.
 
     Returns
     -------
@@ -258,7 +287,7 @@ def update_trial(spec: CampaignSpec, records, method: str | None = None):
         The lines of each test used.
     """
     updater = make_updater(method or spec.update_methods()[0], spec.update.model_dump())
-    problem, masks = update_problem(spec, records, updater)
+    problem, masks = update_problem(spec, records, updater, full=full)
     return updater.update(problem), masks
 
 
@@ -342,11 +371,15 @@ def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
                                seconds=watch.seconds)
         with watch("score"):
             accuracy = {"initial": modal_accuracy(spec, first, nominal)}
+            # one predictor at every line above 0 Hz: the model FRFs before and after,
+            # and (sharing its models by parameter values) the updaters' predictors
+            full = predictor(spec, records, [(rec.freq_hz > 0) for rec in records])
+            h_initial = full.predict(nominal)
         comparison = {}
         for method in methods:
             try:
                 with watch("update"):
-                    res, masks = update_trial(spec, records, method)
+                    res, masks = update_trial(spec, records, method, full=full)
             except Exception as exc:  # one method failing does not lose the others
                 if method == methods[0]:
                     raise
@@ -365,9 +398,7 @@ def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
             if stage is not None:
                 stage = replace(stage, theta_updated=model_values(
                     spec, plant_parameters(updated), stage.mode_index))
-            full = [(rec.freq_hz > 0) for rec in records]
-            h_initial = tuple(model_frfs(spec, nominal, records, full))
-            h_updated = tuple(model_frfs(spec, updated, records, full))
+            h_updated = full.predict(updated)
         return TrialResult(
             trial, tuple(records), truth, result, h_initial, h_updated, tuple(masks),
             accuracy, comparison=comparison, uncertainty=stage, seconds=watch.seconds)
