@@ -17,7 +17,6 @@ recorded with its error; the others finish.
 from __future__ import annotations
 
 import logging
-import multiprocessing
 import os
 import shutil
 import signal
@@ -537,16 +536,16 @@ class SerialEngine(_Engine):
 
 
 class ProcessEngine(_Engine):
-    """Local worker processes (``concurrent.futures``, spawned, BLAS single-threaded in
-    every trial); workers ignore Ctrl-C and die with the main process."""
+    """Local worker processes (joblib's loky executor: fresh interpreters that do not
+    re-run the caller's main module; BLAS single-threaded in every trial); workers
+    ignore Ctrl-C and die with the main process."""
 
     def __init__(self, workers: int):
-        from concurrent.futures import ProcessPoolExecutor
+        from joblib.externals.loky.process_executor import ProcessPoolExecutor
 
         self.workers = int(workers)
         self.label = f"{self.workers} local processes"
         self._pool = ProcessPoolExecutor(max_workers=self.workers,
-                                         mp_context=multiprocessing.get_context("spawn"),
                                          initializer=_worker_init, initargs=(os.getpid(),))
 
     def run(self, spec, trials, seed):
@@ -568,7 +567,7 @@ class ProcessEngine(_Engine):
 
     def close(self) -> None:
         procs = list((getattr(self._pool, "_processes", None) or {}).values())
-        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._pool.shutdown(wait=False, kill_workers=True)
         for p in procs:
             if p.is_alive():
                 p.terminate()

@@ -143,6 +143,8 @@ def _cmd_run(args) -> int:
                     folder=out)
     done0 = len(store.done()) if store.exists else 0
     todo = n_trials - done0
+    if args.scheduler in (None, "local"):
+        jobs = max(1, min(jobs, todo))  # no more workers than trials to run
     log.info("estimate: %.0f MB per worker, %.1f MB per stored trial, %.2f s per trial "
              "on one core", est.worker_mb, est.store_mb_per_trial, est.seconds_per_trial)
     bar = None
