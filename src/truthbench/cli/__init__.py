@@ -21,9 +21,10 @@ from truthbench.cli import (
     run,
     simulate,
     study,
+    validate,
 )
 
-COMMANDS = (run, report, simulate, identify, export, study, place_sensors, modes)
+COMMANDS = (run, validate, report, simulate, identify, export, study, place_sensors, modes)
 """The command modules, in the order ``--help`` lists them."""
 
 
