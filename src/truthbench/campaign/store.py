@@ -57,6 +57,14 @@ parameter unit"``: their units depend on the weighting. Identified ``shapes`` an
 the split of its scale between them is arbitrary. Attributes holding numbers have their
 unit in their name (``fs_hz``, ``E_pa``) or in this docstring.
 
+A run streams its trials to a :class:`TrialStore` first: ``<folder>/trials/run.json``
+(the run's identity: format ``truthbench-store-1``, campaign spec, seed, trial count,
+version) and ``<folder>/trials/<NNNNNN>.h5``, one file per finished trial in the layout
+above (``n_trials`` = 1), written atomically (``.part``, fsync, rename); gathered into
+``results.h5`` (attribute ``n_trials_requested`` added) when every trial is stored.
+:func:`load_results` reads a run's folder too: its ``results.h5``, else the trials its
+store holds.
+
 A failed trial is written with what it had computed, so nothing is lost. Files written
 before channels, FRF metadata and units were stored load too: channels are rebuilt
 from the stored spec (without coordinates), the FRF metadata from the spec's tests.
