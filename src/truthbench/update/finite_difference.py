@@ -273,10 +273,15 @@ def finite_difference_update(
             S = np.asarray(S).reshape(G.size, p)
         A = _stack(S * w_flat[:, None])
         b = _stack((w * (data - G)).ravel())
-        check_identifiable(names, A, rcond, data="the model FRFs at the data's frequencies, "
-                           "outputs and inputs")
-        U, s, Vt = np.linalg.svd(A, full_matrices=False)
-        Ub = U.T @ b
+        # A = Q R (thin): R (p x p) has A's column norms, singular values and right
+        # singular vectors, so the identifiability check and the SVD run on it, and
+        # U^T b = U_R^T (Q^T b)
+        Q, R = np.linalg.qr(A)
+        check_identifiable(names, R if R.shape[0] >= R.shape[1] else A, rcond,
+                           data="the model FRFs at the data's frequencies, outputs and "
+                           "inputs")
+        U, s, Vt = np.linalg.svd(R, full_matrices=False)
+        Ub = U.T @ (Q.T @ b)
         # Steps are in log-parameters (relative changes that keep values positive).
         # Try the Gauss-Newton step; if the cost rises, damp it (Levenberg-Marquardt in
         # the SVD basis) until it falls. Lightly damped FRFs make the cost strongly

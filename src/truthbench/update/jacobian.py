@@ -168,6 +168,46 @@ def _apply(weights: np.ndarray, tensor: np.ndarray) -> np.ndarray:
         (weights.shape[0],) + tensor.shape[1:])
 
 
+class _Batch:
+    """Products ``weights[key] @ tensor`` requested one by one and done as one matrix
+    product per weight matrix (:meth:`run`); :meth:`get` returns a request's result,
+    shape (F, ...) with the tensor's trailing shape; a list of requests is summed."""
+
+    def __init__(self, weights: dict):
+        self.weights = weights
+        self.parts: dict = {k: [] for k in weights}
+        self.results: dict = {}
+
+    def add(self, key: str, tensor: np.ndarray):
+        self.parts[key].append(tensor)
+        return key, len(self.parts[key]) - 1
+
+    def run(self) -> None:
+        for key, tensors in self.parts.items():
+            if not tensors:
+                continue
+            K = tensors[0].shape[0]
+            flat = [t.reshape(K, -1) for t in tensors]
+            dtype = np.result_type(*flat)
+            big = np.concatenate([f.astype(dtype, copy=False) for f in flat], axis=1)
+            prod = self.weights[key] @ big
+            start, out = 0, []
+            for t, f in zip(tensors, flat, strict=True):
+                out.append(prod[:, start:start + f.shape[1]].reshape(
+                    (prod.shape[0],) + t.shape[1:]))
+                start += f.shape[1]
+            self.results[key] = out
+
+    def get(self, handle) -> np.ndarray:
+        if isinstance(handle, list):
+            total = self.get(handle[0])
+            for h in handle[1:]:
+                total = total + self.get(h)
+            return total
+        key, k = handle
+        return self.results[key][k]
+
+
 def _support(mat) -> np.ndarray:
     """Indices of the rows (= columns, symmetric) where ``mat`` has entries."""
     coo = sp.coo_matrix(mat)
@@ -259,19 +299,23 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
         L = Cm[:, c] @ Vt  # (n_out, 2 mc)
         Rb = W @ Bm[c]  # (2 mc, n_in)
 
+    # every product (frequency weights) @ (mode or pole tensor) of the Jacobian is
+    # requested first and done as one matrix product per weight matrix
+    batch = _Batch({"inv": inv, "inv2": inv2, **({"r": r, "r2": r2} if c.size else {})})
+
     def y_proj(P):
-        """sum_m Y[f, o, m] P[k, m] = (Cm Z^-1 P^T)[f], shape (F, n_out, k)."""
-        out = _apply(inv, Cm[:, fr].T[:, :, None] * P[:, fr].T[:, None, :])
+        """Request sum_m Y[f, o, m] P[k, m] = (Cm Z^-1 P^T)[f], shape (F, n_out, k)."""
+        parts = [batch.add("inv", Cm[:, fr].T[:, :, None] * P[:, fr].T[:, None, :])]
         if c.size:
-            out = out + _apply(r, L.T[:, :, None] * (W @ P[:, c].T)[:, None, :])
-        return out
+            parts.append(batch.add("r", L.T[:, :, None] * (W @ P[:, c].T)[:, None, :]))
+        return parts
 
     def x_proj(P):
-        """sum_m P[k, m] X[f, m, i] = (P Z^-1 Bm)[f], shape (F, k, n_in)."""
-        out = _apply(inv, P[:, fr].T[:, :, None] * Bm[fr][:, None, :])
+        """Request sum_m P[k, m] X[f, m, i] = (P Z^-1 Bm)[f], shape (F, k, n_in)."""
+        parts = [batch.add("inv", P[:, fr].T[:, :, None] * Bm[fr][:, None, :])]
         if c.size:
-            out = out + _apply(r, (P[:, c] @ Vt).T[:, :, None] * Rb[:, None, :])
-        return out
+            parts.append(batch.add("r", (P[:, c] @ Vt).T[:, :, None] * Rb[:, None, :]))
+        return parts
 
     # what every parameter shares
     a = np.abs(lam)
@@ -291,30 +335,16 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
         zeta_over_w = np.where(w > 0, zeta / np.where(w > 0, w, 1.0), 0.0)
     pos = np.full(m, -1)
     pos[fr] = np.arange(fr.size)
-
-    def y_cols(idx):
-        """Y[:, :, idx], shape (F, n_out, k)."""
-        if np.all(pos[idx] >= 0):
-            return inv[:, None, pos[idx]] * Cm[None, :, idx]
-        return y_proj(np.eye(m)[idx])
-
-    def x_cols(idx):
-        """X[:, idx, :], shape (F, k, n_in)."""
-        if np.all(pos[idx] >= 0):
-            return inv[:, pos[idx], None] * Bm[None, idx, :]
-        return x_proj(np.eye(m)[idx])
-
-    cols: dict = {}  # Y and X at the cluster pairs' modes, once, when first needed
     P = Cm[:, fr].T[:, :, None] * Bm[fr][:, None, :]  # (mf, n_out, n_in)
     p = len(macros)
-    # per parameter: tensors for the products over the free modes, done as two matrix
-    # products for all parameters at once; the rest (coupled block, clusters, damping)
-    # is added per parameter
+    # per parameter: tensors for the products over the free modes and the poles; the
+    # clusters' and the damping's terms need Y and X at a few modes or DOFs
     t_inv = np.empty((fr.size, p, n_out, n_in))
     t_inv2 = np.empty((fr.size, 2, p, n_out, n_in))
     extra = np.zeros((p, F, n_out, n_in), complex)
     damp_rows: list = []
     dC_rows: list = []
+    cluster_terms: list = []
     if c.size:
         t_r = np.empty((2 * mc, p, n_out, n_in), complex)
         t_r2 = np.empty((2 * mc, p, n_out, n_in), complex)
@@ -340,7 +370,6 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
                        + Cm[:, fr].T[:, :, None] * dBm[fr][:, None, :])
         t_inv2[:, 0, j] = P * dlam[fr][:, None, None]
         t_inv2[:, 1, j] = P * dD[fr][:, None, None]
-        dH = extra[j]
         if c.size:
             # dCm Z^-1 Bm + Cm Z^-1 dBm, then - Cm Z^-1 diag(dlam + s dD) Z^-1 Bm over
             # the coupled modes: with Q = W diag(.) Vt in the pole basis,
@@ -363,23 +392,46 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
             Ac = 0.5 * (Aj[ck, ci] + Aj[ci, ck])
             big = np.abs(Ac) > 64 * _EPS * max(np.abs(Aj).max(), 1e-300)
             if big.any():
-                if not cols:
-                    cols.update(Y=y_cols(ck), X=x_cols(ci))
-                coef = Ac[big][None, :] * (1.0 + s[:, None] * zeta_over_w[ci[big]][None, :])
-                dH -= np.einsum("fok,fki->foi", cols["Y"][:, :, big] * coef[:, None, :],
-                                cols["X"][:, big], optimize=True)
+                cluster_terms.append((j, big, Ac[big]))
         if R.size:
             damp_rows.append(PhiR @ Cc)  # (r, m): dPhi at the damped DOFs
         if me.dC.nnz:
             Rj = _support(me.dC)
             dC_rows.append((j, Phi[Rj], me.dC.tocsr()[Rj][:, Rj].toarray()))
-    # the physical damping's terms, s (dPhi^T C Phi + Phi^T C dPhi + Phi^T dC Phi), for
-    # all parameters through one projection each way
+    h_first = batch.add("inv", t_inv)
+    h_second = batch.add("inv2", t_inv2)
+    if c.size:
+        h_r, h_r2 = batch.add("r", t_r), batch.add("r2", t_r2)
+    if cluster_terms:  # Y and X at the pairs some parameter couples
+        need = np.flatnonzero(np.any([big for _, big, _ in cluster_terms], axis=0))
+        where = np.full(ck.size, -1)
+        where[need] = np.arange(need.size)
+        nk, ni = ck[need], ci[need]
+        direct = np.all(pos[nk] >= 0) and np.all(pos[ni] >= 0)
+        if not direct:
+            h_yk, h_xi = y_proj(np.eye(m)[nk]), x_proj(np.eye(m)[ni])
+    if damp_rows:
+        rows = np.vstack([PhiR, *damp_rows])
+        h_yd, h_xd = y_proj(rows), x_proj(rows)
+    if dC_rows:
+        Pall = np.vstack([P_ for _, P_, _ in dC_rows])
+        h_yc, h_xc = y_proj(Pall), x_proj(Pall)
+    batch.run()
+    if cluster_terms:
+        if direct:
+            Y_k = inv[:, None, pos[nk]] * Cm[None, :, nk]
+            X_i = inv[:, pos[ni], None] * Bm[None, ni, :]
+        else:
+            Y_k, X_i = batch.get(h_yk), batch.get(h_xi)
+        for j, big, ac in cluster_terms:
+            sel = where[big]
+            coef = ac[None, :] * (1.0 + s[:, None] * zeta_over_w[ci[big]][None, :])
+            extra[j] -= np.einsum("fok,fki->foi", Y_k[:, :, sel] * coef[:, None, :],
+                                  X_i[:, sel], optimize=True)
+    # the physical damping's terms, s (dPhi^T C Phi + Phi^T C dPhi + Phi^T dC Phi)
     if damp_rows:
         rr = R.size
-        rows = np.vstack([PhiR, *damp_rows])
-        Yd = y_proj(rows)  # (F, n_out, (p + 1) r)
-        Xd = x_proj(rows)  # (F, (p + 1) r, n_in)
+        Yd, Xd = batch.get(h_yd), batch.get(h_xd)  # (F, n_out, (p + 1) r), (F, ., n_in)
         YPhiR, PhiRX = Yd[:, :, :rr], Xd[:, :rr]
         for j in range(p):
             sl = slice((j + 1) * rr, (j + 2) * rr)
@@ -387,20 +439,19 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
                     + np.einsum("for,rq,fqi->foi", YPhiR, C_RR, Xd[:, sl], optimize=True))
             extra[j] -= s[:, None, None] * damp
     if dC_rows:
-        Pall = np.vstack([P_ for _, P_, _ in dC_rows])
-        Yd, Xd = y_proj(Pall), x_proj(Pall)
+        Yd, Xd = batch.get(h_yc), batch.get(h_xc)
         start = 0
         for j, P_, dC in dC_rows:
             sl = slice(start, start + P_.shape[0])
             start += P_.shape[0]
             extra[j] -= s[:, None, None] * np.einsum("for,rq,fqi->foi", Yd[:, :, sl], dC,
                                                      Xd[:, sl], optimize=True)
-    first = _apply(inv, t_inv)  # (F, p, n_out, n_in)
-    second = _apply(inv2, t_inv2)  # (F, 2, p, n_out, n_in)
+    first = batch.get(h_first)  # (F, p, n_out, n_in)
+    second = batch.get(h_second)  # (F, 2, p, n_out, n_in)
     out = (first - second[:, 0] - s[:, None, None, None] * second[:, 1]).transpose(1, 0, 2, 3)
     out = out + extra
     if c.size:
-        out = out + (_apply(r, t_r) + _apply(r2, t_r2)).transpose(1, 0, 2, 3)
+        out = out + (batch.get(h_r) + batch.get(h_r2)).transpose(1, 0, 2, 3)
     q = np.array([QUANTITIES.index(x) for x in model.quantities])
     return out * (s[None, :, None, None] ** q[None, None, :, None])
 
