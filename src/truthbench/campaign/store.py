@@ -477,14 +477,16 @@ def _channels(t, spec, j, side: str, labels):
 
     if f"channels/{side}" in t:
         c = t[f"channels/{side}"]
+        text = {name: _strs(c[name][()]) for name in ("label", "quantity", "direction",
+                                                      "station", "unit")}
+        signs, points, xyz_all = c["sign"][()], c["point"][()], c["coordinates_m"][()]
         out = []
-        for k, label in enumerate(_strs(c["label"][()])):
+        for k, label in enumerate(text["label"]):
             def s(name, k=k):
-                v = _strs(c[name][()])[k]
-                return v or None
-            xyz = c["coordinates_m"][k]
-            point = int(c["point"][k])
-            out.append(Channel(label, s("quantity"), s("direction"), int(c["sign"][k]),
+                return text[name][k] or None
+            xyz = xyz_all[k]
+            point = int(points[k])
+            out.append(Channel(label, s("quantity"), s("direction"), int(signs[k]),
                                None if point < 0 else point,
                                None if not np.all(np.isfinite(xyz)) else tuple(xyz.tolist()),
                                s("station")))
