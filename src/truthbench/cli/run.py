@@ -190,7 +190,12 @@ def _cmd_run(args) -> int:
             engine.close()
         if bar is not None:
             bar.close()
-    return _finish(spec, out, store, summary, args)
+    try:
+        return _finish(spec, out, store, summary, args)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted while writing the results file or the report; every trial is "
+              f"stored: write them with: truthbench report {out}", file=sys.stderr)
+        return 130
 
 
 def _finish(spec, out: Path, store, summary, args) -> int:
