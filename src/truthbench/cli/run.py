@@ -209,7 +209,13 @@ def _finish(spec, out: Path, store, summary, args) -> int:
         print(f"truthbench run: error: {exc}", file=sys.stderr)
         return 1
     result = CampaignResult.load(path)
-    write_report(result, out, results_path=path)
+    try:
+        write_report(result, out, results_path=path)
+    except OSError as exc:  # a full disk or a folder that became unwritable
+        print(f"truthbench run: error: cannot write the report in {out} ({exc}); the "
+              f"results are complete in {path}: write the report later with "
+              f"'truthbench report {path}'", file=sys.stderr)
+        return 1
     if not args.quiet:
         table = parameter_text(result)
         if table:
