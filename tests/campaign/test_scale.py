@@ -192,7 +192,8 @@ def test_interrupt_kill_and_resume_equal_an_uninterrupted_run(small_file, refere
     assert again.wait(60) == 2
     assert "--resume" in again.stderr.read()
     assert set(store.done()) == killed_with
-    resumed = _run_cli([*args, "--resume", "-v"])
+    resumed = _run_cli([small_file, "--out", out, "--trials", N_TRIALS, "--jobs", 1,
+                        "--resume", "-v"])  # any worker count: the same results
     _, err = resumed.communicate(timeout=300)
     assert resumed.returncode == 0, err
     ran_again = [int(line.split()[2]) for line in err.splitlines()
