@@ -61,14 +61,14 @@ def _child(mode: str, campaign: str, trials: int, jobs: int) -> dict:
             from truthbench.campaign.runner import make_engine, run_to_store
             from truthbench.campaign.store import TrialStore
 
-            folder = tempfile.mkdtemp(prefix="bench-")
-            with make_engine(jobs, "local" if mode == "dask" else None) as engine:
-                t0 = time.perf_counter()
-                summary = run_to_store(spec, folder, trials=trials, engine=engine)
-            out["run_s"] = time.perf_counter() - t0
-            path = TrialStore(folder).consolidate()
-            out["elapsed"] = time.perf_counter() - t0
-            stages = _stages(path)
+            with tempfile.TemporaryDirectory(prefix="bench-") as folder:
+                with make_engine(jobs, "local" if mode == "dask" else None) as engine:
+                    t0 = time.perf_counter()
+                    summary = run_to_store(spec, folder, trials=trials, engine=engine)
+                out["run_s"] = time.perf_counter() - t0
+                path = TrialStore(folder).consolidate()
+                out["elapsed"] = time.perf_counter() - t0
+                stages = _stages(path)
             out["worker_peak_mb"] = summary.peak_rss_mb
         else:
             from truthbench.campaign.runner import run_campaign
