@@ -16,9 +16,15 @@ recorded with its error; the others finish.
 
 from __future__ import annotations
 
+import logging
+import os
+import shutil
+import signal
+import sys
 import time
 import traceback
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -206,11 +212,12 @@ def _weights(spec: CampaignSpec, records, masks) -> np.ndarray | None:
     return np.concatenate([p.ravel() for p in parts])
 
 
-def measured_modes(spec: CampaignSpec, records, params: dict) -> list[MeasuredModes]:
+def measured_modes(spec: CampaignSpec, records, params: dict, *, build=None
+                   ) -> list[MeasuredModes]:
     """Identified modes of every test as :class:`~truthbench.update.MeasuredModes` at
     the model DOFs its (non-strain) sensors sit on."""
     plant = spec.make_plant()
-    labels = plant.build(params).dof_labels
+    labels = (build or plant.build)(params).dof_labels
     out = []
     for j, rec in enumerate(records):
         if rec.modes is None or len(rec.modes.freq_hz) == 0:
@@ -228,34 +235,62 @@ def measured_modes(spec: CampaignSpec, records, params: dict) -> list[MeasuredMo
     return out
 
 
-def update_problem(spec: CampaignSpec, records, updater) -> tuple[UpdateProblem, list]:
+class _MemoBuild:
+    """``plant.build(theta)`` remembering its last few models by parameter values (the
+    sensitivity updater builds the same parameters more than once per iteration)."""
+
+    def __init__(self, plant, size: int = 4):
+        self.plant, self.size, self._cache = plant, size, {}
+
+    def __call__(self, theta):
+        try:
+            key = tuple(sorted((k, float(v)) for k, v in theta.items()))
+        except (TypeError, ValueError):
+            return self.plant.build(theta)
+        if key not in self._cache:
+            self._cache[key] = self.plant.build(theta)
+            while len(self._cache) > self.size:
+                self._cache.pop(next(iter(self._cache)))
+        return self._cache[key]
+
+
+def update_problem(spec: CampaignSpec, records, updater, *, full: FRFPredictor | None = None
+                   ) -> tuple[UpdateProblem, list]:
     """The :class:`~truthbench.update.UpdateProblem` of a trial's data with the inputs
     ``updater`` needs (FRFs and a predictor; identified modes and a model builder), and
-    the lines used per test."""
+    the lines used per test. ``full``: the trial's predictor at all lines, whose cache of
+    models the update's predictor shares."""
     masks = update_masks(spec, records)
     names = tuple(spec.update.parameters)
-    pred = predictor(spec, records, masks)
+    if full is not None:
+        pred = full.with_tests([replace(t, freq_hz=rec.freq_hz[m]) for t, rec, m in
+                                zip(full.tests, records, masks, strict=True)])
+    else:
+        pred = predictor(spec, records, masks)
     nominal = spec.nominal_parameters()
     theta0 = {**nominal, **{k: v for k, v in pred.theta0.items()
                             if k in names and k not in nominal}}
     frf, modes = "frf" in updater.needs, "modes" in updater.needs
     plant = pred.plant
+    build = _MemoBuild(plant) if modes else None
     problem = UpdateProblem(
         names=names, theta0=theta0,
-        predict_frf=pred.predict_vector if frf else None,
+        predict_frf=pred.vector_function() if frf else None,
         frf_data=np.concatenate([rec.H[m].ravel() for rec, m in
                                  zip(records, masks, strict=True)]) if frf else None,
         frf_weights=_weights(spec, records, masks) if frf else None,
         n_pairs=sum(rec.H.shape[1] * rec.H.shape[2] for rec in records) if frf else None,
         additive=pred.additive_scales(names) if frf else None,
-        build_model=plant.build if modes else None,
-        measured=measured_modes(spec, records, nominal) if modes else None)
+        build_model=build,
+        measured=measured_modes(spec, records, nominal, build=build) if modes else None)
     return problem, masks
 
 
-def update_trial(spec: CampaignSpec, records, method: str | None = None):
+def update_trial(spec: CampaignSpec, records, method: str | None = None, *,
+                 full: FRFPredictor | None = None):
     """Update the nominal model against the trial's data with one registered updater
-    configured from the campaign's ``[update]`` table (default: the primary method).
+    configured from the campaign's ``[update]`` table (default: the primary method);
+    ``full`` as in :func:`update_problem`.
 
     Returns
     -------
@@ -264,7 +299,7 @@ def update_trial(spec: CampaignSpec, records, method: str | None = None):
         The lines of each test used.
     """
     updater = make_updater(method or spec.update_methods()[0], spec.update.model_dump())
-    problem, masks = update_problem(spec, records, updater)
+    problem, masks = update_problem(spec, records, updater, full=full)
     return updater.update(problem), masks
 
 
@@ -348,11 +383,15 @@ def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
                                seconds=watch.seconds)
         with watch("score"):
             accuracy = {"initial": modal_accuracy(spec, first, nominal)}
+            # one predictor at every line above 0 Hz: the model FRFs before and after,
+            # and (sharing its models by parameter values) the updaters' predictors
+            full = predictor(spec, records, [(rec.freq_hz > 0) for rec in records])
+            h_initial = full.predict(nominal)
         comparison = {}
         for method in methods:
             try:
                 with watch("update"):
-                    res, masks = update_trial(spec, records, method)
+                    res, masks = update_trial(spec, records, method, full=full)
             except Exception as exc:  # one method failing does not lose the others
                 if method == methods[0]:
                     raise
@@ -371,9 +410,7 @@ def _run_trial(spec: CampaignSpec, trial: int, seed: int) -> TrialResult:
             if stage is not None:
                 stage = replace(stage, theta_updated=model_values(
                     spec, plant_parameters(updated), stage.mode_index))
-            full = [(rec.freq_hz > 0) for rec in records]
-            h_initial = tuple(model_frfs(spec, nominal, records, full))
-            h_updated = tuple(model_frfs(spec, updated, records, full))
+            h_updated = full.predict(updated)
         return TrialResult(
             trial, tuple(records), truth, result, h_initial, h_updated, tuple(masks),
             accuracy, comparison=comparison, uncertainty=stage, seconds=watch.seconds)
@@ -408,3 +445,481 @@ def run_campaign(spec: CampaignSpec, *, trials: int | None = None, seed: int | N
     results = Parallel(n_jobs=n_jobs)(delayed(run_trial)(spec, i, seed)
                                       for i in range(n_trials))
     return CampaignResult(spec, seed, __version__, spec.nominal_parameters(), tuple(results))
+
+
+# ======================================================================================
+# Running at scale: trials streamed to a store, on local processes or a Dask cluster
+# ======================================================================================
+
+log = logging.getLogger("truthbench.run")
+
+
+def trial_job(spec: CampaignSpec, trial: int, seed: int, version: str = __version__
+              ) -> tuple[int, bytes, dict]:
+    """Run one trial and return it as a stored file image (in a worker).
+
+    Returns
+    -------
+    trial : int
+    image : bytes
+        A results file holding this trial alone
+        (:func:`~truthbench.campaign.store.trial_image`).
+    summary : dict
+        ``error`` (str or None), ``seconds`` (per stage), ``peak_rss_mb`` (the worker's
+        peak resident memory so far, MB; None where unknown).
+    """
+    from truthbench.campaign.store import trial_image
+
+    tr = run_trial(spec, trial, seed)
+    image = trial_image(spec, seed, version, spec.nominal_parameters(), tr)
+    return trial, image, {"error": tr.error, "seconds": dict(tr.seconds),
+                          "peak_rss_mb": _peak_rss_mb()}
+
+
+def _peak_rss_mb() -> float | None:
+    try:
+        import resource
+
+        kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        return kb / 1024 if sys.platform != "darwin" else kb / 2**20
+    except (ImportError, OSError):  # pragma: no cover - platforms without resource
+        return None
+
+
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity, else ``os.cpu_count``)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def _worker_init(parent_pid: int) -> None:
+    """In every local worker: end with the main process (Linux: the kernel sends SIGKILL
+    when the parent dies, even by SIGKILL), and leave Ctrl-C to the main process."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL("libc.so.6", use_errno=True)
+            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except OSError:  # pragma: no cover - no libc.so.6
+            pass
+    if os.getppid() != parent_pid:  # the parent died before prctl took effect
+        os._exit(1)
+
+
+class _Engine:
+    """Runs ``trial_job`` for a sequence of trials and yields results as they finish,
+    with at most ``2 * workers`` trials in flight (memory does not grow with the trial
+    count). Used as a context manager: leaving it (normally, by an exception or Ctrl-C)
+    ends every worker it started."""
+
+    workers = 1
+    label = "1 process"
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+    def close(self) -> None:
+        pass
+
+    def run(self, spec, trials, seed):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class SerialEngine(_Engine):
+    """Trials one after another in this process."""
+
+    def run(self, spec, trials, seed):
+        for t in trials:
+            yield trial_job(spec, t, seed)
+
+
+class ProcessEngine(_Engine):
+    """Local worker processes (joblib's loky executor: fresh interpreters that do not
+    re-run the caller's main module; BLAS single-threaded in every trial); workers
+    ignore Ctrl-C and die with the main process."""
+
+    def __init__(self, workers: int):
+        from joblib.externals.loky.process_executor import ProcessPoolExecutor
+
+        self.workers = int(workers)
+        self.label = f"{self.workers} local processes"
+        self._pool = ProcessPoolExecutor(max_workers=self.workers,
+                                         initializer=_worker_init, initargs=(os.getpid(),))
+
+    def run(self, spec, trials, seed):
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        todo = iter(trials)
+        pending = set()
+        limit = 2 * self.workers
+        while True:
+            for t in todo:
+                pending.add(self._pool.submit(trial_job, spec, t, seed))
+                if len(pending) >= limit:
+                    break
+            if not pending:
+                return
+            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                yield fut.result()
+
+    def close(self) -> None:
+        procs = list((getattr(self._pool, "_processes", None) or {}).values())
+        self._pool.shutdown(wait=False, kill_workers=True)
+        for p in procs:
+            if p.is_alive():
+                p.terminate()
+        for p in procs:
+            p.join(timeout=5)
+            if p.is_alive():  # pragma: no cover - a worker ignoring SIGTERM
+                p.kill()
+
+
+class DaskEngine(_Engine):
+    """A ``dask.distributed`` cluster: ``"local"`` starts a ``LocalCluster`` of
+    ``workers`` single-threaded worker processes on this machine; an address
+    (``tcp://host:port``) connects to a running scheduler. Every worker needs the same
+    truthbench installed."""
+
+    def __init__(self, scheduler: str, workers: int):
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError:
+            raise CampaignError(
+                "--scheduler needs dask.distributed, which is not installed; install the "
+                "extra: pip install 'truthbench[dask]'") from None
+        self._cluster = None
+        if scheduler == "local":
+            self._cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1,
+                                         processes=True, dashboard_address=None,
+                                         silence_logs=logging.ERROR)
+            self._client = Client(self._cluster)
+            self.label = f"Dask LocalCluster of {workers} worker(s)"
+        else:
+            try:
+                self._client = Client(scheduler, timeout="10s")
+            except OSError as exc:
+                raise CampaignError(f"--scheduler {scheduler}: cannot connect to a Dask "
+                                    f"scheduler there ({exc})") from None
+            self.label = f"Dask scheduler {scheduler}"
+        self.workers = max(1, sum(w.get("nthreads", 1) for w in
+                                  self._client.scheduler_info()["workers"].values()))
+
+    def run(self, spec, trials, seed):
+        from distributed import as_completed
+
+        spec_f = self._client.scatter(spec, broadcast=True)
+        todo = iter(trials)
+        queue = as_completed()
+        limit = 2 * self.workers
+        n = 0
+        for t in todo:
+            queue.add(self._client.submit(trial_job, spec_f, t, seed, pure=False))
+            n += 1
+            if n >= limit:
+                break
+        for fut in queue:
+            result = fut.result()
+            fut.release()
+            yield result
+            for t in todo:
+                queue.add(self._client.submit(trial_job, spec_f, t, seed, pure=False))
+                break
+
+    def close(self) -> None:
+        try:
+            self._client.close()
+        finally:
+            if self._cluster is not None:
+                self._cluster.close()
+
+
+def make_engine(jobs: int = 1, scheduler: str | None = None) -> _Engine:
+    """The engine for ``jobs`` workers: in-process for 1, local processes for more, or a
+    Dask cluster for ``scheduler`` (``"local"`` or ``tcp://host:port``)."""
+    if scheduler:
+        return DaskEngine(scheduler, jobs)
+    return SerialEngine() if jobs <= 1 else ProcessEngine(jobs)
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What :func:`run_to_store` did.
+
+    Attributes
+    ----------
+    folder : pathlib.Path
+        The run's output folder (store under ``trials/`` until consolidated).
+    n_trials : int
+        Trials the run has (requested).
+    stored : int
+        Trials in the store now.
+    ran : int
+        Trials run by this call.
+    failed : tuple of (int, str)
+        Trials of this call that failed, with the first line of their error.
+    elapsed_s : float
+        Wall-clock seconds of this call.
+    peak_rss_mb : float or None
+        The largest peak resident memory of a worker (MB).
+    """
+
+    folder: Path
+    n_trials: int
+    stored: int
+    ran: int
+    failed: tuple = ()
+    elapsed_s: float = 0.0
+    peak_rss_mb: float | None = None
+
+    @property
+    def complete(self) -> bool:
+        return self.stored >= self.n_trials
+
+
+def run_to_store(spec: CampaignSpec, folder, *, trials: int | None = None,
+                 seed: int | None = None, jobs: int = 1, scheduler: str | None = None,
+                 resume: bool = False, progress=None, engine: _Engine | None = None
+                 ) -> RunSummary:
+    """Run a campaign's trials, each stored as soon as it finishes
+    (:class:`~truthbench.campaign.store.TrialStore` under ``folder/trials``).
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    folder : str or pathlib.Path
+        Output folder; it must not hold a store unless ``resume``.
+    trials, seed : int, optional
+        Override the campaign's ``trials`` and ``seed``.
+    jobs : int
+        Workers (local processes, or the size of a Dask ``LocalCluster``).
+    scheduler : str, optional
+        ``"local"`` or ``"tcp://host:port"``: run on Dask (:class:`DaskEngine`).
+    resume : bool
+        Continue the store's run: it must be the same campaign, seed and trial count
+        (checked against ``trials/run.json``); only the trials not stored run.
+    progress : callable, optional
+        ``progress(trial, summary)`` after every stored trial (``summary`` as returned
+        by :func:`trial_job`).
+    engine : optional
+        An engine from :func:`make_engine` to use instead of making one.
+
+    Returns
+    -------
+    RunSummary
+
+    Raises
+    ------
+    StoreError
+        The store cannot be written (the trials already stored are kept), or
+        ``resume`` with a store of another run.
+    KeyboardInterrupt
+        Passed on after the workers were ended; every finished trial is stored.
+
+    Notes
+    -----
+    Results do not depend on ``jobs`` or the engine: every trial draws from its own
+    seed streams, and the store holds trials by number.
+    """
+    from truthbench.campaign.store import StoreError, TrialStore
+
+    n_trials = spec.campaign.trials if trials is None else int(trials)
+    if n_trials < 1:
+        raise ValueError(f"trials must be >= 1; got {n_trials}")
+    seed = spec.campaign.seed if seed is None else int(seed)
+    store = TrialStore(folder)
+    if store.exists:
+        if not resume:
+            raise StoreError(f"{store.dir}: holds a run already; resume it (resume=True) "
+                             f"or remove it")
+        store.check(spec, seed, n_trials)
+        removed = store.clean_partial()
+        if removed:
+            log.info("removed %d partly written trial file(s)", removed)
+    else:
+        store.create(spec, seed, n_trials, __version__)
+    done = set(store.done())
+    todo = [t for t in range(n_trials) if t not in done]
+    log.info("%d of %d trials stored; %d to run", len(done), n_trials, len(todo))
+    t0 = time.perf_counter()
+    failed, peak, ran = [], None, 0
+    own = engine is None
+    engine = engine or (make_engine(jobs, scheduler) if todo else SerialEngine())
+    try:
+        for trial, image, summary in engine.run(spec, todo, seed):
+            free = shutil.disk_usage(store.dir).free
+            if free < 2 * len(image) + 1e6:
+                raise StoreError(
+                    f"{store.dir}: only {free / 1e6:.1f} MB free, trial {trial} needs "
+                    f"{len(image) / 1e6:.1f} MB; the {len(done)} trial(s) already stored are "
+                    f"kept: free space and continue with --resume")
+            store.write(trial, image)
+            done.add(trial)
+            ran += 1
+            if summary.get("error"):
+                failed.append((trial, summary["error"].splitlines()[0]))
+                log.warning("trial %d failed: %s", trial, failed[-1][1])
+            else:
+                log.info("trial %d stored (%.2f s)", trial, sum(summary["seconds"].values()))
+            if summary.get("peak_rss_mb") is not None:
+                peak = max(peak or 0.0, summary["peak_rss_mb"])
+            if progress is not None:
+                progress(trial, summary)
+    finally:
+        if own:
+            engine.close()
+    return RunSummary(Path(folder), n_trials, len(done), ran, tuple(failed),
+                      time.perf_counter() - t0, peak)
+
+
+# ---- sizes before any work ------------------------------------------------------------
+_BASE_PROCESS_MB = 180.0
+"""Resident memory of a worker with numpy, scipy, h5py and truthbench loaded (MB;
+measured 150-200 MB here)."""
+
+_SECONDS_PER_OP = 2e-9
+"""Seconds per complex multiply-add of the dominant kernels (modal FRF sums) on one core
+of the machine the figures were taken on, calibrated so that the quickstart estimate
+matches its measured trial time (about 0.6 s); a rough scale, not a benchmark."""
+
+
+@dataclass(frozen=True)
+class ResourceEstimate:
+    """What a run will need, estimated from the campaign before any work.
+
+    Attributes
+    ----------
+    n_dofs : int
+        Model size (DOFs of the nominal model; every mode is used).
+    worker_mb : float
+        Peak resident memory of one worker running one trial (MB).
+    store_mb_per_trial : float
+        Stored size of one trial (MB; the first trial more when it keeps time histories).
+    store_mb : float
+        The whole run's store (and ``results.h5``; MB).
+    report_mb : float
+        Memory of the report, which loads every trial (MB).
+    seconds_per_trial : float
+        Rough wall-clock seconds of one trial on one core.
+    lines : str
+        How the figures were obtained (trials x record length x channels, model size).
+    """
+
+    n_dofs: int
+    worker_mb: float
+    store_mb_per_trial: float
+    store_mb: float
+    report_mb: float
+    seconds_per_trial: float
+    lines: tuple[str, ...] = ()
+
+
+def estimate_resources(spec: CampaignSpec, trials: int | None = None) -> ResourceEstimate:
+    """Memory, disk and time a run of ``trials`` trials needs (an estimate from the
+    record lengths, channel counts and model size; see :class:`ResourceEstimate`)."""
+    n_trials = spec.campaign.trials if trials is None else int(trials)
+    model = spec.make_plant().build(spec.nominal_parameters())
+    m = model.n_dofs
+    keep = spec.output.time_histories
+    worker, store, store0, ops, lines = 0.0, 0.0, 0.0, 0.0, []
+    update_lines = 0
+    for j, t in enumerate(spec.tests):
+        acts, sens = spec.test_io(j)
+        n_in, n_out = len(acts), len(sens)
+        n = int(round(t.record_s * t.fs_hz))
+        seg = max(n // t.averages, 1)
+        lines_all = seg // 2 + 1
+        excited = max(1, int(min(t.band_hz[1], t.fs_hz / 2) * t.record_s)
+                      - int(t.band_hz[0] * t.record_s))
+        R = 1 if t.simulation == "periodic" else t.oversample
+        # time histories, their spectra, the modal sum over the excited lines (3 arrays)
+        sim = (8 * n * R * (n_in + n_out) * 3 + 16 * excited * m * 3
+               + 16 * excited * n_out * n_in * 2) / 1e6
+        worker = max(worker, sim)
+        frf = 16 * lines_all * n_out * n_in
+        store += (frf * 3 + 8 * lines_all * n_out * n_in + 8 * lines_all) / 1e6 + 0.05
+        th = 8 * n * (n_in + n_out) / 1e6
+        store0 += th
+        ops += excited * m * n_out * n_in * (1 + 4 * R * (R > 1)) + R * n * m * (R > 1)
+        lo, hi = t.band_hz
+        if spec.update.band_hz is not None:
+            lo, hi = max(lo, spec.update.band_hz[0]), min(hi, spec.update.band_hz[1])
+        update_lines += max(0, int((hi - lo) * seg / t.fs_hz))
+        lines.append(f"test {t.name!r}: {n} samples x ({n_in} in + {n_out} out), "
+                     f"{lines_all} FRF lines, {excited} excited lines")
+    methods = spec.update_methods()
+    if methods:
+        p = len(spec.update.parameters)
+        update = 16 * update_lines * m * 6 / 1e6 + 16 * update_lines * 8 * p * 4 / 1e6
+        worker = max(worker, update)
+        # ~10 iterations of a prediction and a Jacobian, every updater
+        ops += len(methods) * 10 * update_lines * m * 8 * (2 + p)
+    ops += len(spec.tests) * m**3 * 4  # eigen-solutions
+    worker += _BASE_PROCESS_MB + 8 * m * m * 8 / 1e6
+    first = store + store0 if keep in ("first_trial", "all") else store
+    per = store + store0 if keep == "all" else store
+    total = first + per * (n_trials - 1)
+    lines.append(f"model: {m} DOFs (every mode is used)")
+    lines.append(f"{n_trials} trials x {per:.2f} MB stored per trial"
+                 + (f" (the first {first:.2f} MB with its time histories)"
+                    if first != per else ""))
+    return ResourceEstimate(m, worker, per, total, total * 1.2 + _BASE_PROCESS_MB,
+                            max(ops * _SECONDS_PER_OP, 0.01), tuple(lines))
+
+
+def available_memory_mb() -> float | None:
+    """Memory available to new processes (MB; Linux ``MemAvailable``), or None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) / 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (ValueError, OSError, AttributeError):  # pragma: no cover
+        return None
+
+
+def check_resources(est: ResourceEstimate, *, workers: int, folder,
+                    memory_mb: float | None = None, free_mb: float | None = None,
+                    report: bool = True) -> None:
+    """Refuse a run that cannot fit, before any work.
+
+    Raises
+    ------
+    CampaignError
+        Naming the estimate and what is available: workers' memory, the report's memory
+        (it loads every trial), the store on disk.
+    """
+    memory_mb = available_memory_mb() if memory_mb is None else memory_mb
+    if free_mb is None:
+        probe = Path(folder)
+        while not probe.exists() and probe != probe.parent:
+            probe = probe.parent
+        free_mb = shutil.disk_usage(probe).free / 1e6
+    how = "; ".join(est.lines)
+    if memory_mb is not None and est.worker_mb * workers > memory_mb:
+        raise CampaignError(
+            f"the run needs about {est.worker_mb * workers:.0f} MB of memory "
+            f"({workers} worker(s) x {est.worker_mb:.0f} MB) and {memory_mb:.0f} MB are "
+            f"available; use fewer --jobs or shorter records ({how})")
+    if report and memory_mb is not None and est.report_mb > memory_mb:
+        raise CampaignError(
+            f"the report of {est.store_mb / max(est.store_mb_per_trial, 1e-9):.0f} trials "
+            f"would need about {est.report_mb:.0f} MB of memory (it loads every trial) and "
+            f"{memory_mb:.0f} MB are available; run fewer --trials ({how})")
+    if est.store_mb * 1.1 > free_mb:
+        raise CampaignError(
+            f"the results need about {est.store_mb:.0f} MB on disk and {free_mb:.0f} MB "
+            f"are free in {folder}; free space, choose another --out or run fewer "
+            f"--trials ({how})")

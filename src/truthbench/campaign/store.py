@@ -57,6 +57,14 @@ parameter unit"``: their units depend on the weighting. Identified ``shapes`` an
 the split of its scale between them is arbitrary. Attributes holding numbers have their
 unit in their name (``fs_hz``, ``E_pa``) or in this docstring.
 
+A run streams its trials to a :class:`TrialStore` first: ``<folder>/trials/run.json``
+(the run's identity: format ``truthbench-store-1``, campaign spec, seed, trial count,
+version) and ``<folder>/trials/<NNNNNN>.h5``, one file per finished trial in the layout
+above (``n_trials`` = 1), written atomically (``.part``, fsync, rename); gathered into
+``results.h5`` (attribute ``n_trials_requested`` added) when every trial is stored.
+:func:`load_results` reads a run's folder too: its ``results.h5``, else the trials its
+store holds.
+
 A failed trial is written with what it had computed, so nothing is lost. Files written
 before channels, FRF metadata and units were stored load too: channels are rebuilt
 from the stored spec (without coordinates), the FRF metadata from the spec's tests.
@@ -64,13 +72,16 @@ from the stored spec (without coordinates), the FRF metadata from the spec's tes
 
 from __future__ import annotations
 
+import errno
 import json
+import os
+import shutil
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
-from truthbench.errors import DataFormatError
+from truthbench.errors import DataFormatError, TruthbenchError
 from truthbench.io import load_frf, register_reader  # noqa: F401  (load_frf: public, with .h5)
 
 FORMAT = "truthbench-results-1"
@@ -126,60 +137,74 @@ def write_results(result, path: str | Path) -> Path:
     the module docstring); the file appears complete or not at all."""
     import h5py
 
-    from truthbench.campaign.tables import parameter_unit
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".part")
-
-    def units(names):
-        return [parameter_unit(result.spec, n) for n in names]
-
     with h5py.File(tmp, "w") as f:
-        _attrs(f, {
-            "format": FORMAT, "truthbench_version": result.version, "seed": result.seed,
-            "campaign": result.spec.campaign.name,
-            "spec_json": json.dumps(result.spec.to_toml_dict()),
-            "source": result.spec.source,
-            "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
-            "n_trials": len(result.trials)})
-        _attrs(f.create_group("nominal"), result.nominal)
+        _write_header(f, result.spec, result.seed, result.version, result.nominal,
+                      len(result.trials))
         trials = f.create_group("trials")
         for tr in result.trials:
-            g = trials.create_group(f"{tr.trial:04d}")
-            g.attrs["status"] = "failed" if tr.error else "ok"
-            g.attrs["error"] = tr.error or ""
-            _attrs(g.create_group("truth"), tr.truth)
-            _attrs(g.create_group("seconds"), tr.seconds)
-            tests = g.create_group("tests")
-            for rec in tr.tests:
-                _write_test(tests.create_group(rec.name), rec)
-            if tr.uncertainty is not None:
-                _write_uncertainty(g.create_group("uncertainty"), tr.uncertainty)
-            if tr.update is not None:
-                _write_update(g.create_group("update"), tr.update, units)
-                for method, res in tr.comparison.items():
-                    c = g.create_group(f"updates/{method}")
-                    if isinstance(res, str):
-                        c.attrs["error"] = res
-                    else:
-                        _write_update(c, res, units)
-                for stage, acc in tr.accuracy.items():
-                    a = g.create_group(f"accuracy/{stage}")
-                    for key, value in acc.items():
-                        _dataset(a, key, value, _ACCURACY_UNITS.get(key, "-"))
-                m = g.create_group("model")
-                for rec, hi, hu, mask in zip(tr.tests, tr.H_initial, tr.H_updated,
-                                             tr.update_mask, strict=True):
-                    mg = m.create_group(rec.name)
-                    fu = _frf_units(rec.frf)
-                    _dataset(mg, "H_initial", hi, fu)
-                    _dataset(mg, "H_updated", hu, fu)
-                    _dataset(mg, "update_mask", mask, "-")
-            if getattr(tr, "frf_band", None) is not None:
-                _write_frf_band(g.create_group("frf_band"), tr.frf_band, tr)
+            _write_trial(trials, tr, result.spec)
     tmp.replace(path)
     return path
+
+
+def _write_header(f, spec, seed: int, version: str, nominal: dict, n_trials: int) -> None:
+    """The root attributes and ``/nominal`` of a results file."""
+    _attrs(f, {
+        "format": FORMAT, "truthbench_version": version, "seed": seed,
+        "campaign": spec.campaign.name, "spec_json": json.dumps(spec.to_toml_dict()),
+        "source": spec.source,
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        "n_trials": n_trials})
+    _attrs(f.create_group("nominal"), nominal)
+
+
+def _write_trial(trials, tr, spec) -> None:
+    """One :class:`~truthbench.campaign.results.TrialResult` as ``trials/<NNNN>``."""
+    from truthbench.campaign.tables import parameter_unit
+
+    def units(names):
+        return [parameter_unit(spec, n) for n in names]
+
+    g = trials.create_group(trial_key(tr.trial))
+    g.attrs["status"] = "failed" if tr.error else "ok"
+    g.attrs["error"] = tr.error or ""
+    _attrs(g.create_group("truth"), tr.truth)
+    _attrs(g.create_group("seconds"), tr.seconds)
+    tests = g.create_group("tests")
+    for rec in tr.tests:
+        _write_test(tests.create_group(rec.name), rec)
+    if tr.uncertainty is not None:
+        _write_uncertainty(g.create_group("uncertainty"), tr.uncertainty)
+    if tr.update is not None:
+        _write_update(g.create_group("update"), tr.update, units)
+        for method, res in tr.comparison.items():
+            c = g.create_group(f"updates/{method}")
+            if isinstance(res, str):
+                c.attrs["error"] = res
+            else:
+                _write_update(c, res, units)
+        for stage, acc in tr.accuracy.items():
+            a = g.create_group(f"accuracy/{stage}")
+            for key, value in acc.items():
+                _dataset(a, key, value, _ACCURACY_UNITS.get(key, "-"))
+        m = g.create_group("model")
+        for rec, hi, hu, mask in zip(tr.tests, tr.H_initial, tr.H_updated,
+                                     tr.update_mask, strict=True):
+            mg = m.create_group(rec.name)
+            fu = _frf_units(rec.frf)
+            _dataset(mg, "H_initial", hi, fu)
+            _dataset(mg, "H_updated", hu, fu)
+            _dataset(mg, "update_mask", mask, "-")
+    if getattr(tr, "frf_band", None) is not None:
+        _write_frf_band(g.create_group("frf_band"), tr.frf_band, tr)
+
+
+def trial_key(trial: int) -> str:
+    """The group name of a trial under ``/trials`` (``0007``; more digits past 9999)."""
+    return f"{int(trial):04d}"
 
 
 _ACCURACY_UNITS = {"truth_freq_hz": "Hz", "freq_error_pct": "%", "damping_error_pct": "%",
@@ -367,7 +392,9 @@ def load_results(path: str | Path):
 
     A single-test file of ``truthbench simulate`` gives a result with one trial (its
     number from the file) holding the one test, an empty trial truth and no update;
-    ``injected`` lists the effects injected.
+    ``injected`` lists the effects injected. A run's folder gives its ``results.h5``,
+    or, for a run that has not finished (interrupted, or still running), the trials its
+    store holds (:class:`TrialStore`).
 
     Raises
     ------
@@ -376,6 +403,18 @@ def load_results(path: str | Path):
         HDF5, not a truthbench results file, a stored spec that is not a valid campaign.
     """
     path = Path(path)
+    if path.is_dir():  # a run's folder: its results file, else its (partial) store
+        if (path / RESULTS_FILE).is_file():
+            path = path / RESULTS_FILE
+        else:
+            store = TrialStore(path.parent if path.name == TRIALS_DIR else path)
+            if not store.exists:
+                raise DataFormatError(f"{path}: holds neither {RESULTS_FILE} nor a run store "
+                                      f"({TRIALS_DIR}/{RUN_FILE})")
+            try:
+                return store.load()
+            except StoreError as exc:
+                raise DataFormatError(str(exc)) from None
     where = str(path)
     try:
         with _open(path) as f:
@@ -413,10 +452,14 @@ def _load(f, path: Path):
                                   injected=tuple(json.loads(a.get("injected", "[]"))),
                                   **common)
         trials = tuple(_read_trial(f["trials"][k], spec, order)
-                       for k in sorted(f["trials"]))
+                       for k in sorted(f["trials"], key=_trial_order))
         return CampaignResult(nominal=_attr_dict(f["nominal"]), trials=trials, **common)
     except _Part as exc:
         raise DataFormatError(f"{path}: {exc}") from None
+
+
+def _trial_order(key: str):
+    return (0, int(key)) if key.isdigit() else (1, key)
 
 
 def _attr_dict(g) -> dict:
@@ -438,14 +481,16 @@ def _channels(t, spec, j, side: str, labels):
 
     if f"channels/{side}" in t:
         c = t[f"channels/{side}"]
+        text = {name: _strs(c[name][()]) for name in ("label", "quantity", "direction",
+                                                      "station", "unit")}
+        signs, points, xyz_all = c["sign"][()], c["point"][()], c["coordinates_m"][()]
         out = []
-        for k, label in enumerate(_strs(c["label"][()])):
+        for k, label in enumerate(text["label"]):
             def s(name, k=k):
-                v = _strs(c[name][()])[k]
-                return v or None
-            xyz = c["coordinates_m"][k]
-            point = int(c["point"][k])
-            out.append(Channel(label, s("quantity"), s("direction"), int(c["sign"][k]),
+                return text[name][k] or None
+            xyz = xyz_all[k]
+            point = int(points[k])
+            out.append(Channel(label, s("quantity"), s("direction"), int(signs[k]),
                                None if point < 0 else point,
                                None if not np.all(np.isfinite(xyz)) else tuple(xyz.tolist()),
                                s("station")))
@@ -593,6 +638,278 @@ def _read_trial(g, spec, order):
         raise
     except (KeyError, ValueError, TypeError) as exc:
         raise _Part(f"{g.name}: {type(exc).__name__}: {exc}") from None
+
+
+# ------------------------------------------------------------------------------------
+# The streaming store of a run: one file per finished trial, written atomically
+# ------------------------------------------------------------------------------------
+
+STORE_FORMAT = "truthbench-store-1"
+"""The ``format`` of a run's ``trials/run.json``."""
+
+TRIALS_DIR = "trials"
+RUN_FILE = "run.json"
+RESULTS_FILE = "results.h5"
+
+
+class StoreError(TruthbenchError, OSError):
+    """The store cannot be written or read (a full disk, an unwritable folder, a store of
+    another run); the message names the path and what was expected."""
+
+
+def trial_image(result_spec, seed: int, version: str, nominal: dict, trial) -> bytes:
+    """One trial as the bytes of a results file holding that trial alone (the layout of
+    :func:`write_results`, ``n_trials`` = 1), built in memory: workers make it, the main
+    process only writes bytes (so a full disk is an ``OSError`` of an ordinary write,
+    never an error inside HDF5)."""
+    import h5py
+
+    with h5py.File(f"trial-{trial.trial}.h5", "w", driver="core", backing_store=False) as f:
+        _write_header(f, result_spec, seed, version, nominal, 1)
+        _write_trial(f.create_group("trials"), trial, result_spec)
+        f.flush()
+        return bytes(f.id.get_file_image())
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:  # pragma: no cover - platforms without directory handles
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # pragma: no cover
+        pass
+    finally:
+        os.close(fd)
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that the file appears whole or not at all: a
+    ``.part`` file, flushed and fsynced, renamed over ``path``; on failure the ``.part``
+    file is removed and the ``OSError`` raised."""
+    tmp = path.with_name(path.name + ".part")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(path.parent)
+
+
+class TrialStore:
+    """The store of one run under ``folder``: ``trials/run.json`` (what the run is:
+    campaign, seed, trial count, version) and ``trials/<NNNNNN>.h5``, one results file
+    per finished trial, each written atomically (a crash leaves at most a ``.part`` file,
+    which is ignored and removed). :meth:`consolidate` writes ``results.h5`` from them
+    (trial by trial, never all in memory) and removes ``trials/``.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        The run's output folder.
+    """
+
+    def __init__(self, folder: str | Path):
+        self.folder = Path(folder)
+        self.dir = self.folder / TRIALS_DIR
+        self.run_path = self.dir / RUN_FILE
+
+    # ---- what is there ----------------------------------------------------------
+    @property
+    def exists(self) -> bool:
+        """Whether a (partial) store of trial files is there."""
+        return self.run_path.exists()
+
+    def header(self) -> dict:
+        """The run's identity (``run.json``).
+
+        Raises
+        ------
+        StoreError
+            Missing or unreadable, or not a truthbench store.
+        """
+        try:
+            head = json.loads(self.run_path.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise StoreError(f"{self.run_path}: cannot be read as a truthbench run "
+                             f"({type(exc).__name__}: {exc})") from None
+        if head.get("format") != STORE_FORMAT:
+            raise StoreError(f"{self.run_path}: not a truthbench run store (format "
+                             f"{head.get('format')!r}; expected {STORE_FORMAT!r})")
+        return head
+
+    def trial_path(self, trial: int) -> Path:
+        return self.dir / f"{int(trial):06d}.h5"
+
+    def done(self) -> list[int]:
+        """Trials stored, ascending (finished files only; ``.part`` files are not)."""
+        if not self.dir.is_dir():
+            return []
+        out = []
+        for p in self.dir.iterdir():
+            if p.suffix == ".h5" and p.stem.isdigit():
+                out.append(int(p.stem))
+        return sorted(out)
+
+    # ---- writing ----------------------------------------------------------------
+    def create(self, spec, seed: int, n_trials: int, version: str) -> dict:
+        """Start a new store (the folder must not hold one)."""
+        head = {"format": STORE_FORMAT, "campaign": spec.campaign.name,
+                "spec_json": json.dumps(spec.to_toml_dict(), sort_keys=True),
+                "source": spec.source, "seed": int(seed), "trials": int(n_trials),
+                "truthbench_version": version,
+                "created_utc": datetime.now(UTC).isoformat(timespec="seconds")}
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+            write_atomic(self.run_path, json.dumps(head, indent=1).encode())
+        except OSError as exc:
+            raise StoreError(f"{self.dir}: cannot start the results store "
+                             f"({exc.strerror or exc}); choose a writable folder with "
+                             f"--out") from None
+        return head
+
+    def check(self, spec, seed: int, n_trials: int) -> dict:
+        """The stored header, after checking that it is the same run (same campaign,
+        seed and trial count).
+
+        Raises
+        ------
+        StoreError
+            Naming what differs: the stored value against the requested one.
+        """
+        head = self.header()
+        want = {"campaign (spec)": json.dumps(spec.to_toml_dict(), sort_keys=True),
+                "seed": int(seed), "trials": int(n_trials)}
+        have = {"campaign (spec)": head.get("spec_json"), "seed": head.get("seed"),
+                "trials": head.get("trials")}
+        bad = [k for k in want if want[k] != have[k]]
+        if bad:
+            detail = "; ".join(
+                f"{k}: stored {have[k]!r}, requested {want[k]!r}" if k != "campaign (spec)"
+                else "campaign: the stored campaign differs from the file's "
+                     f"(stored from {head.get('source')!r})" for k in bad)
+            raise StoreError(f"{self.folder}: --resume needs the run the store holds; "
+                             f"{detail}. Run with the stored settings, or --force to "
+                             f"start over")
+        return head
+
+    def write(self, trial: int, image: bytes) -> Path:
+        """Store one finished trial (bytes of :func:`trial_image`) atomically.
+
+        Raises
+        ------
+        StoreError
+            The write failed (full disk, permissions); the trials already stored are
+            untouched.
+        """
+        path = self.trial_path(trial)
+        try:
+            write_atomic(path, image)
+        except OSError as exc:
+            kept = len(self.done())
+            why = exc.strerror or str(exc)
+            if exc.errno == errno.ENOSPC:
+                why = "no space left on device"
+            raise StoreError(
+                f"{path}: cannot store trial {trial} ({why}; {len(image) / 1e6:.1f} MB); "
+                f"the {kept} trial(s) already stored in {self.dir} are kept: free space "
+                f"and continue with --resume") from None
+        return path
+
+    def clean_partial(self) -> int:
+        """Remove ``.part`` files a crash left; returns how many."""
+        n = 0
+        if self.dir.is_dir():
+            for p in self.dir.glob("*.part"):
+                p.unlink(missing_ok=True)
+                n += 1
+        return n
+
+    # ---- reading ----------------------------------------------------------------
+    def stored_bytes(self) -> int:
+        return sum(self.trial_path(t).stat().st_size for t in self.done())
+
+    def load(self):
+        """The stored trials as a :class:`~truthbench.campaign.results.CampaignResult`
+        (all in memory; a partial store gives the trials it holds)."""
+        from dataclasses import replace
+
+        head = self.header()
+        trials, first = [], None
+        for t in self.done():
+            res = load_results(self.trial_path(t))
+            first = first or res
+            trials.extend(res.trials)
+        if first is None:
+            from truthbench.campaign.results import CampaignResult
+            from truthbench.campaign.spec import parse_campaign
+
+            spec = parse_campaign(json.loads(head["spec_json"]), source=head.get("source"))
+            return CampaignResult(spec, int(head["seed"]), head["truthbench_version"],
+                                  spec.nominal_parameters(), (), path=str(self.dir))
+        return replace(first, trials=tuple(trials), path=str(self.dir),
+                       created_utc=head.get("created_utc"))
+
+    def consolidate(self, path: str | Path | None = None, *, remove: bool = True) -> Path:
+        """Write the stored trials to one results file (layout of :func:`write_results`),
+        copying trial by trial (memory does not grow with the trial count); then remove
+        ``trials/`` unless ``remove`` is False.
+
+        Raises
+        ------
+        StoreError
+            Not enough free space (checked first), or the write failed; the trial files
+            are kept then.
+        """
+        import h5py
+
+        path = Path(path) if path is not None else self.folder / RESULTS_FILE
+        head = self.header()
+        done = self.done()
+        need = self.stored_bytes()
+        free = shutil.disk_usage(path.parent).free
+        if need * 1.1 + 1e6 > free:
+            raise StoreError(f"{path}: not enough free space to write the results file "
+                             f"(about {need / 1e6:.0f} MB needed, {free / 1e6:.0f} MB "
+                             f"free); the {len(done)} stored trial(s) are kept in "
+                             f"{self.dir}")
+        tmp = path.with_name(path.name + ".part")
+        try:
+            with h5py.File(tmp, "w") as out:
+                nominal = None
+                trials = out.create_group("trials")
+                for t in done:
+                    with h5py.File(self.trial_path(t), "r") as src:
+                        if nominal is None:
+                            for k, v in src.attrs.items():
+                                out.attrs[k] = v
+                            out.copy(src["nominal"], "nominal")
+                            nominal = True
+                        for key in src["trials"]:
+                            src.copy(src["trials"][key], trials, name=key)
+                if nominal is None:
+                    out.attrs.update({"format": FORMAT, "seed": head["seed"],
+                                      "campaign": head["campaign"],
+                                      "spec_json": head["spec_json"],
+                                      "source": head.get("source", ""),
+                                      "truthbench_version": head["truthbench_version"]})
+                    out.create_group("nominal")
+                out.attrs["n_trials"] = len(done)
+                out.attrs["n_trials_requested"] = int(head["trials"])
+                out.attrs["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
+            os.replace(tmp, path)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise StoreError(f"{path}: cannot write the results file ({exc}); the "
+                             f"{len(done)} stored trial(s) are kept in {self.dir}") from None
+        if remove:
+            shutil.rmtree(self.dir, ignore_errors=True)
+        return path
 
 
 # ------------------------------------------------------------------------------------

@@ -24,11 +24,12 @@ from truthbench.cli import (
     run,
     simulate,
     study,
+    validate,
 )
 from truthbench.cli._args import Parser, harden
 
-COMMANDS = (run, report, simulate, identify, export, diagnose, diagnose_study, study,
-            place_sensors, modes)
+COMMANDS = (run, validate, report, simulate, identify, export, diagnose, diagnose_study,
+            study, place_sensors, modes)
 """The command modules, in the order ``--help`` lists them."""
 
 #: An example per command, shown at the end of its ``--help`` (commands whose module

@@ -158,6 +158,7 @@ def finite_difference_update(
     rcond: float = 1e-4,
     max_step: float = 0.5,
     additive: Mapping[str, float] | None = None,
+    jacobian: str | Callable | None = "auto",
 ) -> UpdateResult:
     """Iterated finite-difference frequency-domain update (METHOD 5.1).
 
@@ -195,6 +196,16 @@ def finite_difference_update(
         the trust region count in units of the scale): for parameters that may start
         at 0 or change sign, e.g. a delay (appended dynamics) with scale
         ``1 / (2 pi f_max)``, one radian of phase at the top of the band.
+    jacobian : {"auto", "finite_difference"}, callable or None
+        Where the sensitivity matrix comes from. ``"auto"`` (default): ``predict``'s own
+        ``jacobian(theta, names, additive=...)`` when it has one (an analytic Jacobian,
+        e.g. :meth:`FRFPredictor.vector_function
+        <truthbench.update.FRFPredictor.vector_function>`, see
+        :mod:`truthbench.update.jacobian`), else finite differences; a callable with that
+        signature; ``"finite_difference"`` or None: always finite differences. A
+        Jacobian that returns None at some ``theta`` falls back to finite differences
+        there. The fixed point (the converged parameters) does not depend on it; the
+        path and the iteration count may differ at the level of the Jacobian's error.
 
     Returns
     -------
@@ -240,6 +251,13 @@ def finite_difference_update(
     G = np.asarray(predict(theta))
     if G.shape != data.shape:
         raise ValueError(f"predict returned shape {G.shape}; data has shape {data.shape}")
+    if jacobian == "auto":
+        jacobian = getattr(predict, "jacobian", None)
+    elif jacobian == "finite_difference":
+        jacobian = None
+    elif jacobian is not None and not callable(jacobian):
+        raise ValueError(f"jacobian must be 'auto', 'finite_difference', a callable or None;"
+                         f" got {jacobian!r}")
     history = [base.copy()]
     costs = [cost(G)]
     converged = False
@@ -247,14 +265,23 @@ def finite_difference_update(
     mu = 0.0  # Levenberg-Marquardt damping, 0 = plain Gauss-Newton (Eq. 10.21)
     dx = np.zeros(p)
     for _ in range(max_iterations):
-        S, _ = sensitivity_matrix(predict, theta, names, relative_step=relative_step,
-                                  scheme=scheme, G0=G, additive=additive)
+        S = None if jacobian is None else jacobian(theta, names, additive=additive)
+        if S is None:
+            S, _ = sensitivity_matrix(predict, theta, names, relative_step=relative_step,
+                                      scheme=scheme, G0=G, additive=additive)
+        else:
+            S = np.asarray(S).reshape(G.size, p)
         A = _stack(S * w_flat[:, None])
         b = _stack((w * (data - G)).ravel())
-        check_identifiable(names, A, rcond, data="the model FRFs at the data's frequencies, "
-                           "outputs and inputs")
-        U, s, Vt = np.linalg.svd(A, full_matrices=False)
-        Ub = U.T @ b
+        # A = Q R (thin): R (p x p) has A's column norms, singular values and right
+        # singular vectors, so the identifiability check and the SVD run on it, and
+        # U^T b = U_R^T (Q^T b)
+        Q, R = np.linalg.qr(A)
+        check_identifiable(names, R if R.shape[0] >= R.shape[1] else A, rcond,
+                           data="the model FRFs at the data's frequencies, outputs and "
+                           "inputs")
+        U, s, Vt = np.linalg.svd(R, full_matrices=False)
+        Ub = U.T @ (Q.T @ b)
         # Steps are in log-parameters (relative changes that keep values positive).
         # Try the Gauss-Newton step; if the cost rises, damp it (Levenberg-Marquardt in
         # the SVD basis) until it falls. Lightly damped FRFs make the cost strongly

@@ -46,6 +46,10 @@ values."""
 
 KINDS = ("plant", "appended", "effect")
 
+HARDWARE_CACHE_SIZE = 4
+"""Hardware objects (models with their modes) an :class:`FRFPredictor` keeps, by
+parameter values."""
+
 
 @dataclass(frozen=True)
 class PredictedTest:
@@ -203,6 +207,8 @@ class FRFPredictor:
         object.__setattr__(self, "_sensors", tuple(sens))
         object.__setattr__(self, "_per_test", any(
             t.spec.effect.per_test_channels or t.tests is not None for t in self.effects))
+        object.__setattr__(self, "_hardware_cache", {})
+        object.__setattr__(self, "_macro_cache", {})
 
     # ---- what it can vary ---------------------------------------------------------
     @property
@@ -263,7 +269,32 @@ class FRFPredictor:
                  ) -> Hardware:
         """The model at ``theta`` as hardware, instrumented with ``actuators`` and
         ``sensors`` (default: the union of the tests'), with the effects that act in
-        ``test`` (default: those that act in every test)."""
+        ``test`` (default: those that act in every test).
+
+        The last :data:`HARDWARE_CACHE_SIZE` hardware objects are kept, keyed on the
+        parameter values, channels and test, so that a prediction and a Jacobian at the
+        same ``theta`` build the model and solve its modes once (a :class:`Hardware`
+        caches its model and modes)."""
+        try:
+            key = (tuple(sorted((k, float(v)) for k, v in self.plant_parameters(theta).items())),
+                   tuple(tuple(sorted(t.fitted(theta).items())) for t in self.effects),
+                   float(theta.get("delay_s", 0.0)), float(theta.get("sensor_gain", 1.0)),
+                   None if actuators is None else tuple(actuators),
+                   None if sensors is None else tuple(sensors), test)
+            hash(key)
+        except (TypeError, ValueError):
+            return self._hardware(theta, actuators, sensors, test)
+        cache = self._hardware_cache
+        if key in cache:
+            cache[key] = cache.pop(key)  # most recently used last
+            return cache[key]
+        hw = self._hardware(theta, actuators, sensors, test)
+        cache[key] = hw
+        while len(cache) > HARDWARE_CACHE_SIZE:
+            cache.pop(next(iter(cache)))
+        return hw
+
+    def _hardware(self, theta, actuators, sensors, test) -> Hardware:
         builder = SetupBuilder(
             plant=self.plant, parameters=self.plant.resolve(self.plant_parameters(theta)),
             actuators=self._actuators if actuators is None else tuple(actuators),
@@ -292,8 +323,9 @@ class FRFPredictor:
         -------
         tuple of ndarray, complex, shape (n_lines_j, n_out_j, n_in_j)
         """
-        out = []
         hw = None if self._per_test else self.hardware(theta)
+        shared: dict = {}  # one structural solution per distinct line set and decay
+        out = []
         for t in self.tests:
             if self._per_test:
                 one = self.hardware(theta, t.actuators, t.sensors, test=t.name)
@@ -310,11 +342,80 @@ class FRFPredictor:
                                   mode_tolerance=self.mode_tolerance)[:, rows][:, :, cols]
             if estimator and t.kernel is not None:
                 out.append(expected_h1(t.freq_hz, frf, t.kernel, t.band_hz))
-            else:
+            elif self._per_test:
                 out.append(frf(t.freq_hz))
+            else:
+                key = (t.decay_rad_s, t.freq_hz.size, t.freq_hz.tobytes())
+                if key not in shared:
+                    shared[key] = hw.frf(t.freq_hz, decay_rad_s=t.decay_rad_s,
+                                         mode_tolerance=self.mode_tolerance)
+                out.append(shared[key][:, rows][:, :, cols])
         return tuple(out)
+
+    # ---- derivatives --------------------------------------------------------------
+    def jacobian(self, theta: Mapping[str, float], names: Sequence[str], *,
+                 additive: Mapping[str, float] | None = None) -> np.ndarray | None:
+        """Analytic ``d predict_vector / dp`` for relative changes of ``names`` (per unit
+        scale of the ``additive`` ones): the matrix that
+        :func:`~truthbench.update.finite_difference.sensitivity_matrix` approximates by
+        finite differences (:mod:`truthbench.update.jacobian`).
+
+        Returns
+        -------
+        ndarray, complex, shape (N, p), or None
+            None when the analytic form does not cover the case (effect parameters,
+            closed loops, per-test instrumentation effects, ...): use finite differences.
+        """
+        from truthbench.update.jacobian import JacobianUnavailable, frf_jacobian
+
+        names = tuple(names)
+        plant = tuple(n for n in names if self.kinds.get(n) == "plant")
+        cache = self._macro_cache.get(plant)
+        if cache is None and plant:
+            from truthbench.update.jacobian import MacroelementCache
+
+            cache = MacroelementCache(lambda th: self.hardware(th).model, plant)
+            self._macro_cache.clear()
+            self._macro_cache[plant] = cache
+        try:
+            return frf_jacobian(self, theta, names, additive=additive, cache=cache)
+        except JacobianUnavailable as exc:
+            import logging
+
+            logging.getLogger(__name__).debug("analytic FRF Jacobian unavailable: %s", exc)
+            return None
+
+    def with_tests(self, tests: Sequence[PredictedTest]) -> FRFPredictor:
+        """The same model at other lines (``tests`` with the same channels), sharing this
+        predictor's cache of models and modes."""
+        other = FRFPredictor(self.plant, self.nominal, tests, self.effects,
+                             self.mode_tolerance)
+        if (other._actuators, other._sensors) == (self._actuators, self._sensors):
+            object.__setattr__(other, "_hardware_cache", self._hardware_cache)
+        return other
+
+    def vector_function(self) -> PredictVector:
+        """:meth:`predict_vector` as a callable that also offers :meth:`jacobian` (what
+        :func:`~truthbench.update.finite_difference.finite_difference_update` looks for)."""
+        return PredictVector(self)
 
     def predict_vector(self, theta: Mapping[str, float], *, estimator: bool = False
                        ) -> np.ndarray:
         """:meth:`predict` of every test, raveled and concatenated (complex, 1-D)."""
         return np.concatenate([h.ravel() for h in self.predict(theta, estimator=estimator)])
+
+
+@dataclass(frozen=True)
+class PredictVector:
+    """``predict(theta) -> G`` (:meth:`FRFPredictor.predict_vector`) with the analytic
+    Jacobian ``jacobian(theta, names, additive=...)`` (:meth:`FRFPredictor.jacobian`,
+    None where it does not apply)."""
+
+    predictor: FRFPredictor
+
+    def __call__(self, theta: Mapping[str, float]) -> np.ndarray:
+        return self.predictor.predict_vector(theta)
+
+    def jacobian(self, theta: Mapping[str, float], names: Sequence[str], *,
+                 additive: Mapping[str, float] | None = None) -> np.ndarray | None:
+        return self.predictor.jacobian(theta, names, additive=additive)
