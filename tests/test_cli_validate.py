@@ -39,9 +39,10 @@ def test_thickness_beside_E_and_rho_is_not_identifiable(tmp_path, capsys):
 def test_update_band_outside_the_tests_fails(tmp_path, capsys):
     path, _ = _write(tmp_path, lambda t: t.replace("band_hz = [10.0, 400.0]",
                                                    "band_hz = [450.0, 500.0]"))
-    assert main(["validate", str(path)]) == 1
-    out = capsys.readouterr().out
-    assert "FAIL update band 450-500 Hz overlaps every test's band; no line of" in out
+    # refused when the file is read (every command validates the same way): exit 2
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "key 'update.band_hz'" in err and "450-500 Hz" in err and "shaker_end" in err
 
 
 def test_a_bad_campaign_file_is_exit_2(tmp_path, capsys):

@@ -164,7 +164,7 @@ def test_interrupt_kill_and_resume_equal_an_uninterrupted_run(small_file, refere
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 130
+    assert proc.returncode == 130, err
     assert "Traceback" not in err
     lines = [x for x in err.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("interrupted:") and "--resume" in lines[0]

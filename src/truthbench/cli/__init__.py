@@ -37,6 +37,8 @@ COMMANDS = (run, validate, report, simulate, identify, export, diagnose, diagnos
 EXAMPLES = {
     "run": "examples:\n  truthbench run campaigns/quickstart.toml\n"
            "  truthbench run campaigns/hub_beam.toml --out results/hub --trials 4 --jobs 2",
+    "validate": "examples:\n  truthbench validate campaigns/quickstart.toml\n"
+                "  truthbench validate campaigns/hub_beam.toml --trials 1000 --jobs 8",
     "report": "example:\n  truthbench report results/quickstart/results.h5 --out report_again",
 }
 
