@@ -432,6 +432,9 @@ class DiagnoseSpec(_Strict):
     the segment length follows from the line spacing."""
     fs_hz: PositiveFloat | None = None
     """Their sampling rate (default: twice the highest line)."""
+    averages: Annotated[int, Field(ge=1)] | None = None
+    """Their number of averages (UFF FRF sets do not say): with the coherence it sets the
+    noise weight of every value; without it the fit weights values relatively."""
     study: StudySpec = Field(default_factory=StudySpec)
 
     def settings(self) -> dict[str, Any]:
@@ -441,7 +444,7 @@ class DiagnoseSpec(_Strict):
                 "point_map": {int(k): v for k, v in self.map.items()},
                 "max_effects": self.max_effects, "threshold": self.threshold,
                 "refits": self.refits, "estimator": self.estimator, "window": self.window,
-                "fs_hz": self.fs_hz}
+                "fs_hz": self.fs_hz, "averages": self.averages}
 
 
 class CampaignSpec(_Strict):

@@ -84,6 +84,7 @@ class DiagnoseSettings:
     estimator: bool = True
     window: str | None = None
     fs_hz: float | None = None
+    averages: int | None = None
     identify_modes: bool = True
     max_iterations: int = 30
     tolerance: float = 1e-6
@@ -264,7 +265,8 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
         ``max_effects``, ``threshold`` (delta BIC), ``refits``, ``estimator``
         (compare through the data's leakage when known), ``window`` and ``fs_hz`` (the
         segment window of data from other tools, whose files do not say, and their
-        sampling rate), ``identify_modes``.
+        sampling rate), ``averages`` (their number of averages, which with the coherence
+        sets the noise weights; the data's own when they state it), ``identify_modes``.
 
     Returns
     -------
@@ -282,6 +284,9 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
     elif kwargs:
         settings = replace(settings, **kwargs)
     data = (data,) if isinstance(data, FRFData) else tuple(data)
+    if settings.averages is not None:
+        data = tuple(d if d.n_averages is not None else replace(d, n_averages=settings.averages)
+                     for d in data)
     # small dense matrices: BLAS threads only add overhead (as in the campaign's trials)
     with threadpool_limits(limits=1, user_api="blas"):
         return _diagnose(data, plant, nominal, parameters, settings)

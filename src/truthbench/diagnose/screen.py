@@ -1,21 +1,21 @@
 """Exact screening of point attachments: every node, every strength, one model solution.
 
 A grounded spring ``k``, dashpot ``c`` or lumped mass ``m`` at a node changes the
-dynamic stiffness by a low-rank term ``U z U^T`` (``z = k``, ``j omega c`` or
-``-omega^2 m``; U the node's DOF(s)), so the new FRF follows from the current one by the
-Woodbury identity,
+dynamic stiffness by a low-rank term ``U z U^T`` (``z = k``, ``j omega c`` or ``-omega^2
+m``; U the node's DOF(s)), so the new FRF follows from the current one by the Woodbury
+identity,
 
     H_new = H - H_oc z (I + z R_cc)^-1 R_ci,
 
 with the current model's receptances from the node to the outputs (``H_oc``, in the
-outputs' quantities), from the inputs to the node (``R_ci``) and at the node
-(``R_cc``). With these computed once, the chi2 of every node and every strength on a
-log-spaced grid costs a few vector operations: the exact (not first-order) profile of
-each attachment with the rest of the model adapted to first order (a Gauss-Newton step
-of the current fit's parameters), which a strong spring or dashpot needs
-(a first-order score from zero misjudges a change that moves or flattens a peak by more
-than its width).
-"""
+outputs' quantities), from the inputs to the node (``R_ci``) and at the node (``R_cc``),
+and the correction passed through the measurement chain outside the structure (filters,
+gain, delay: :meth:`Hardware.chain_gains`). With these computed once, the chi2 of every
+node and every strength on a log-spaced grid costs a few vector operations: the exact
+(not first-order) profile of each attachment with the rest of the model adapted to first
+order (a Gauss-Newton step of the current fit's parameters), which a strong spring or
+dashpot needs (a first-order score from zero misjudges a change that moves or flattens a
+peak by more than its width)."""
 
 from __future__ import annotations
 
@@ -65,6 +65,8 @@ def point_profiles(problem, current, candidates, sizes: dict) -> dict:
     if pred._per_test:  # an effect tied to each test's channels: no shared model
         return {}
     hw = pred.hardware(current.theta)
+    if hw.loops:  # a closed loop: the attachment is not a low-rank change of the FRF
+        return {}
     model, modes = hw.model, hw.modes
     labels = model.dof_labels
     nodes = sorted({c.node for c in cands})
@@ -100,6 +102,11 @@ def point_profiles(problem, current, candidates, sizes: dict) -> dict:
         Rci = model.with_io(B=model.B[:, :n_act][:, cols], C_out=E, quantities=disp
                             ).frf(f, **kw)
         s = 2j * np.pi * f + t.decay_rad_s
+        # the measurement chain outside the structure (filters, gain, delay)
+        g_out, g_in = hw.chain_gains(f, decay_rad_s=t.decay_rad_s)
+        g_out = np.ones((f.size, len(rows))) if g_out is None else g_out[:, rows]
+        g_in = np.ones((f.size, len(cols))) if g_in is None else g_in[:, cols]
+        chain = g_out[:, :, None] * g_in[:, None, :]
         for node in nodes:
             mine = [c for c in cands if c.node == node]
             touched = sorted({lab for c in mine for lab in dofs[c.label]})
@@ -123,7 +130,7 @@ def point_profiles(problem, current, candidates, sizes: dict) -> dict:
                     z = (mult * size_c) * factor  # (n_f,)
                     # (I + z R_cc)^-1 R_ci, per line
                     X = np.linalg.solve(eye[None] + z[:, None, None] * rcc, rci)
-                    Hn = M - z[:, None, None] * np.einsum("fok,fki->foi", hoc, X)
+                    Hn = M - (z[:, None, None] * chain) * np.einsum("fok,fki->foi", hoc, X)
                     resid[c.label][g].append((W * (D - Hn)).ravel())
     Q, R = np.linalg.qr(current.jacobian)
     results = {}

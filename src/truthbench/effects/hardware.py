@@ -269,14 +269,40 @@ class Hardware:
         f = np.asarray(freq_hz, dtype=float)
         H = self.structural_frf(f, decay_rad_s=decay_rad_s, mode_tolerance=mode_tolerance
                                 )[:, :, : len(self.actuators)]
-        s = 2j * np.pi * f + decay_rad_s if decay_rad_s else 2j * np.pi * f
-        if self.input_filters:
-            H = H * _filter_gains(self.input_filters, s, H.shape[2]).T[:, None, :]
-        if self.output_filters:
-            H = H * _filter_gains(self.output_filters, s, H.shape[1]).T[:, :, None]
-        if self.bias_gain != 1.0 or self.delay_s != 0.0:
-            H = H * (self.bias_gain * np.exp(-s * self.delay_s))[:, None, None]
+        out, into = self.chain_gains(f, decay_rad_s=decay_rad_s)
+        if out is not None:
+            H = H * out[:, :, None]
+        if into is not None:
+            H = H * into[:, None, :]
         return H
+
+    def chain_gains(self, freq_hz, *, decay_rad_s: float = 0.0
+                    ) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """What the hardware does to the structure's FRF outside its loops: per output
+        channel (output filters, the measurement gain and the delay) and per input
+        channel (input filters), so that ``frf = out[:, :, None] * structural_frf *
+        into[:, None, :]``.
+
+        Returns
+        -------
+        out : ndarray, complex, shape (n_freq, n_out), or None
+            None when it is 1 (no output filter, gain or delay).
+        into : ndarray, complex, shape (n_freq, n_in), or None
+            None when it is 1 (no input filter).
+        """
+        f = np.asarray(freq_hz, dtype=float)
+        s = 2j * np.pi * f + decay_rad_s if decay_rad_s else 2j * np.pi * f
+        out = into = None
+        if self.input_filters:
+            into = _filter_gains(self.input_filters, s, len(self.actuators)).T
+        if self.output_filters:
+            out = _filter_gains(self.output_filters, s, len(self.sensors)).T
+        if self.bias_gain != 1.0 or self.delay_s != 0.0:
+            common = (self.bias_gain * np.exp(-s * self.delay_s))[:, None]
+            out = common if out is None else out * common
+            if out.shape[1] != len(self.sensors):
+                out = np.broadcast_to(out, (f.size, len(self.sensors)))
+        return out, into
 
     # ---- time histories ----------------------------------------------------------
     def simulate(self, u, fs_hz: float, *, rng: np.random.Generator | None = None,
