@@ -142,9 +142,10 @@ class BoundaryConditions(Effect):
                         EffectParam("damping_n_s_m", 0.0, "added suspension damping, N s/m",
                                     0.0))
     options: ClassVar = {}
-    diagnosis: ClassVar = Diagnosable(
-        (FitParam("stiffness_rel", "unit", 0.1, minimum=-0.99),
-         FitParam("damping_n_s_m", "damping", 0.01, minimum=0.0)))
+    diagnosis: ClassVar = Diagnosable((FitParam("stiffness_rel", "unit", 0.1, minimum=-0.99),))
+    """Diagnosed by its stiffness only: added suspension damping is a grounded dashpot at
+    the suspension points (a dashpot candidate), and a damping fitted beside the
+    stiffness crosses zero, where the model refuses it."""
 
     def contribute(self, values, options, setup):
         if "suspension_stiffness_n_m" not in setup.parameters:
