@@ -45,7 +45,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "identify"))
 from conftest import make_frf  # noqa: E402  (the test oracle: analytic modal sum)
-
 from truthbench.identify import identify_plscf, mac  # noqa: E402
 
 SCALE = 100.0

@@ -72,7 +72,9 @@ def test_h1_noise_from_coherence_and_averages():
     assert h1_sigma(H, np.ones_like(g2), 8)[0].min() > 0
     assert np.isclose(h1_sigma(H, np.ones_like(g2), 8)[0][0, 0, 0],
                       2.0 * np.sqrt(COHERENCE_FLOOR / (16 * (1 - COHERENCE_FLOOR))))
-    assert h1_sigma(H, None, None)[1] == "relative"
+    sigma, kind = h1_sigma(H, None, None)
+    assert kind == "relative"  # |H| plus the pair's median |H| (1.5 here)
+    np.testing.assert_allclose(sigma.ravel(), [3.5, 2.5], rtol=1e-15)
 
 
 def test_signs_flip_rows_and_columns():
@@ -83,3 +85,26 @@ def test_signs_flip_rows_and_columns():
     _, (t,) = prepare([data], PLANT, PLANT.resolve())
     np.testing.assert_array_equal(t.H[:, 0], -(1 + 2j))
     np.testing.assert_array_equal(t.H[:, 1], 1 + 2j)
+
+
+def test_a_channel_map_places_channels_a_file_does_not_describe():
+    """A LabVIEW record says neither where nor which way: the map by label does."""
+    out = [Channel("Acceleration (Trigger)", "acceleration")]
+    inp = [Channel("Force (Trigger)", "force")]
+    cmap = {"Acceleration (Trigger)": {"x_m": 0.27, "direction": "z", "sign": -1},
+            "Force (Trigger)": {"station": "mid", "direction": "z"}}
+    plant, (t,) = prepare([frf(out, inp)], PLANT, PLANT.resolve(), channel_map=cmap)
+    assert [s.station for s in t.sensors] == ["n3"]
+    assert [(a.station, a.direction) for a in t.actuators] == [("mid", "z")]
+    np.testing.assert_array_equal(t.H, -1.0)  # the accelerometer measures -z
+
+
+@pytest.mark.parametrize("cmap,match", [
+    ({"Accel": {"x_m": 0.27, "direction": "z"}}, r"\['Accel'\] are no channel of the "
+                                                 r"data; its channels are"),
+    ({"a": {"x_m": 0.27, "dir": "z"}}, r"entry 'a': unknown keys \['dir'\]"),
+])
+def test_a_channel_map_that_names_no_channel_is_refused(cmap, match):
+    data = frf([Channel("a", "acceleration")], [Channel("f", "force", "z", station="mid")])
+    with pytest.raises(DataFormatError, match=match):
+        prepare([data], PLANT, PLANT.resolve(), channel_map=cmap)

@@ -45,8 +45,7 @@ def test_screened_drop_is_the_rebuilt_models(effect, param, value, delay_s, monk
     pt = (PredictedTest(t.name, t.freq_hz, t.actuators, t.sensors),)
     w = np.full(t.H.size, 1.0 / np.abs(t.H).max())
     declared = ("E_pa", "delay_s")
-    problem = Problem(placed, dict(NOM), pt, t.H.ravel(), w, declared, {"delay_s": 1e-4},
-                      t.n_pairs)
+    problem = Problem(placed, dict(NOM), pt, t.H.ravel(), w, declared, {"delay_s": 1e-4})
     current = evaluate(problem, (), declared, {**problem.theta0(), "delay_s": delay_s})
     sizes = {k: v for c in cands for k, v in c.scales(references(placed, NOM, 300.0)).items()}
     size = sizes[at.keys()[0]]

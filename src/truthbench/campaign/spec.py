@@ -410,6 +410,24 @@ class StudySpec(_Strict):
     trials: Annotated[int, Field(ge=1)] = 20
 
 
+class ChannelPlace(_Strict):
+    """``[diagnose.channels]`` entry: where and in which direction a channel of the data
+    measures, for files that do not say (LabVIEW records)."""
+
+    direction: Direction
+    x_m: NonNegFloat | None = None
+    """Position along the beam from its first end, m (or give ``station``)."""
+    station: str | None = None
+    sign: Literal[1, -1] | None = None
+    """-1 where the channel measures along the negative direction (default: the file's)."""
+
+    @model_validator(mode="after")
+    def _one_place(self):
+        if (self.x_m is None) == (self.station is None):
+            raise ValueError("give exactly one of x_m and station")
+        return self
+
+
 class DiagnoseSpec(_Strict):
     """``[diagnose]``: how ``truthbench diagnose`` treats data against this model (see
     :class:`truthbench.diagnose.DiagnoseSettings`)."""
@@ -422,6 +440,9 @@ class DiagnoseSpec(_Strict):
     map: dict[str, float] = Field(default_factory=dict)
     """Point number (as a string key) -> position along the beam, m, for data whose
     coordinates are not in the model's frame."""
+    channels: dict[str, ChannelPlace] = Field(default_factory=dict)
+    """Channel label -> ``{ direction, x_m or station, sign }``, for data that do not say
+    where or in which direction a channel measures."""
     max_effects: Annotated[int, Field(ge=0, le=5)] = 2
     threshold: NonNegFloat = 10.0
     refits: Annotated[int, Field(ge=1, le=50)] = 6
@@ -442,6 +463,8 @@ class DiagnoseSpec(_Strict):
         return {"candidates": None if self.candidates is None else tuple(self.candidates),
                 "band_hz": self.band_hz, "tolerance_m": self.tolerance_m,
                 "point_map": {int(k): v for k, v in self.map.items()},
+                "channel_map": {k: v.model_dump(exclude_none=True)
+                                for k, v in self.channels.items()},
                 "max_effects": self.max_effects, "threshold": self.threshold,
                 "refits": self.refits, "estimator": self.estimator, "window": self.window,
                 "fs_hz": self.fs_hz, "averages": self.averages}

@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import argparse
-
 
 def _cmd_diagnose(args) -> int:
     import json
@@ -66,8 +64,7 @@ def register(subparsers) -> None:
                     "location and add the best while it is significant (delta BIC); print "
                     "the FRF error before and after.",
         epilog="example: truthbench diagnose data.uff --model campaigns/steel_tube.toml "
-               "--out results/diagnosis",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+               "--out results/diagnosis")
     d.add_argument("data", nargs="+",
                    help="measured FRFs: UFF 58 (+164, 2411), LVM, or a truthbench .h5")
     d.add_argument("--model", required=True,

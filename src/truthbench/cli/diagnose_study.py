@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import argparse
-
 
 def _cmd_diagnose_study(args) -> int:
     from pathlib import Path
@@ -31,11 +29,10 @@ def register(subparsers) -> None:
                     "random strengths and locations into the campaign's tests, diagnoses "
                     "them and scores what was found against what was injected.",
         epilog="example: truthbench diagnose-study campaigns/diagnose_study.toml "
-               "--trials 200 --jobs 2",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+               "--trials 200 --jobs 2")
     d.add_argument("campaign", help="campaign TOML file with a [diagnose.study] table")
     d.add_argument("--trials", type=int, help="trials (default: [diagnose.study] trials)")
     d.add_argument("--seed", type=int, help="seed (default: the campaign's)")
-    d.add_argument("--jobs", type=int, default=1, help="parallel workers")
+    d.add_argument("--jobs", type=int, default=1, help="parallel workers (default 1)")
     d.add_argument("--out", help="output folder (default results/<campaign>_study)")
     d.set_defaults(func=_cmd_diagnose_study)

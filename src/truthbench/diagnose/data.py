@@ -2,6 +2,9 @@
 
 Each :class:`~truthbench.measure.frfdata.FRFData` channel is placed on the model:
 
+0. an entry of ``channel_map`` for its label (the model file's ``[diagnose.channels]``)
+   sets its direction, sign, and station or position first: files that say neither where
+   nor in which direction a channel measures (LabVIEW records) are placed this way;
 1. a channel that names a station the plant has (our own files) sits there;
 2. else an explicit map entry for its point number (``point_map``: point -> x along the
    beam, m) places it;
@@ -18,8 +21,11 @@ gauge has no model DOF); they must name a station.
 The noise of each FRF value comes from its coherence and number of averages (Bendat and
 Piersol, Random Data, 9.3): the random error of an H1 estimate has, per real and
 imaginary part, the standard deviation ``|H| sqrt((1 - g2) / (2 n_d g2))`` with ``g2``
-the coherence and ``n_d`` the averages. Data without coherence get relative weights
-(``1 / |H|``): the diagnosis then estimates the common noise scale from the residual.
+the coherence and ``n_d`` the averages. Data without coherence (one impact) get
+weights ``1 / (|H| + m)``, ``m`` the channel pair's median ``|H|``: relative where the
+response is large, absolute near antiresonances (where an output's noise does not vanish
+with the response, and pure relative weights let a few antiresonance lines pull the fit
+away); the diagnosis then estimates the common noise scale from the residual.
 """
 
 from __future__ import annotations
@@ -57,7 +63,8 @@ class MeasuredTest:
         Standard deviation of the real and of the imaginary part of each value (same unit
         as ``H``), or relative weights (``noise = "relative"``).
     noise : {"coherence", "relative"}
-        Where ``sigma`` came from.
+        Where ``sigma`` came from (``"relative"``: ``|H|`` plus the channel pair's
+        median ``|H|``, up to a common scale).
     """
 
     frf: FRFData
@@ -94,7 +101,11 @@ def h1_sigma(H: np.ndarray, coherence: np.ndarray | None, n_averages: int | None
     mag = np.abs(H)
     floor = 1e-12 * max(float(mag.max()), 1e-300)
     if coherence is None or n_averages is None:
-        return np.maximum(mag, floor), "relative"
+        # a relative error where the response is large, an absolute one (the channel
+        # pair's median level) near antiresonances, where the noise of a measurement does
+        # not vanish with the response
+        level = np.median(mag, axis=0, keepdims=True) if mag.shape[0] else mag
+        return np.maximum(mag + level, floor), "relative"
     g2 = np.clip(coherence, COHERENCE_FLOOR, 1.0 - COHERENCE_FLOOR)
     return np.maximum(mag * np.sqrt((1.0 - g2) / (2.0 * n_averages * g2)), floor), \
         "coherence"
@@ -132,9 +143,55 @@ def _place(ch: Channel, plant: Plant, xyz: np.ndarray, tolerance_m: float,
     return f"n{node}", node
 
 
+def map_channels(data: Sequence[FRFData], channel_map: Mapping[str, Mapping]
+                 ) -> tuple[FRFData, ...]:
+    """The data with the channels named in ``channel_map`` placed as it says.
+
+    Parameters
+    ----------
+    data : sequence of FRFData
+    channel_map : mapping of str -> mapping
+        Channel label -> any of ``direction`` (x, y, z, rx, ry, rz), ``sign`` (1 or -1),
+        ``x_m`` (position along the beam from its first end, m) and ``station`` (a
+        station of the model).
+
+    Raises
+    ------
+    DataFormatError
+        A label that is no channel of the data, or an entry with unknown keys.
+    """
+    labels = {c.label for d in data for c in (*d.outputs, *d.inputs)}
+    unknown = sorted(set(channel_map) - labels)
+    if unknown:
+        raise DataFormatError(f"channel map: {unknown} are no channel of the data; its "
+                              f"channels are {sorted(labels)}")
+    keys = {"direction", "sign", "x_m", "station"}
+    for label, entry in channel_map.items():
+        bad = sorted(set(entry) - keys)
+        if bad:
+            raise DataFormatError(f"channel map entry {label!r}: unknown keys {bad}; "
+                                  f"expected some of {sorted(keys)}")
+
+    def one(ch: Channel) -> Channel:
+        e = channel_map.get(ch.label)
+        if e is None:
+            return ch
+        return replace(ch, direction=e.get("direction", ch.direction),
+                       sign=int(e.get("sign", ch.sign)),
+                       coordinates_m=(float(e["x_m"]), 0.0, 0.0) if "x_m" in e
+                       else ch.coordinates_m,
+                       station=e.get("station", ch.station),
+                       point=None if "x_m" in e or "station" in e else ch.point)
+
+    return tuple(replace(d, outputs=tuple(map(one, d.outputs)),
+                         inputs=tuple(map(one, d.inputs))) if channel_map else d
+                 for d in data)
+
+
 def prepare(data: Sequence[FRFData], plant: Plant, nominal: Mapping[str, float], *,
             band_hz: tuple[float, float] | None = None, tolerance_m: float = 1e-3,
-            point_map: Mapping[int, float] | None = None
+            point_map: Mapping[int, float] | None = None,
+            channel_map: Mapping[str, Mapping] | None = None
             ) -> tuple[Plant, tuple[MeasuredTest, ...]]:
     """Place every test's channels on the model and choose its lines.
 
@@ -152,6 +209,8 @@ def prepare(data: Sequence[FRFData], plant: Plant, nominal: Mapping[str, float],
         Largest distance of a measured point from its node, m.
     point_map : mapping of int -> float, optional
         Point number -> x along the beam, m.
+    channel_map : mapping of str -> mapping, optional
+        Channel label -> direction, sign, x_m or station (:func:`map_channels`).
 
     Returns
     -------
@@ -168,6 +227,7 @@ def prepare(data: Sequence[FRFData], plant: Plant, nominal: Mapping[str, float],
     if not data:
         raise DataFormatError("no data to diagnose: expected at least one FRF data set")
     point_map = dict(point_map or {})
+    data = map_channels(data, channel_map or {})
     xyz = plant.node_coordinates_m(plant.resolve(nominal))
     stations = dict(plant.stations)
     placed = []

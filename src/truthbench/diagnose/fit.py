@@ -64,8 +64,6 @@ class Problem:
         Parameters the user trusts the model to get wrong (always refitted).
     scales : dict
         Natural size of every additively fitted parameter (the delay, candidates').
-    n_pairs : int
-        SISO transfer functions over the tests.
     offsets : ndarray, complex, shape (N,), optional
         The estimator's leakage offset ``E[H1] - H`` at a reference fit.
     settings : dict
@@ -79,7 +77,6 @@ class Problem:
     weights: np.ndarray
     declared: tuple[str, ...]
     scales: dict
-    n_pairs: int
     offsets: np.ndarray | None = None
     settings: dict = field(default_factory=dict)
 
@@ -189,7 +186,7 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = finite_difference_update(
-            predict, problem.data, theta0, names, n_pairs=problem.n_pairs,
+            predict, problem.data, theta0, names, n_pairs=None,
             weights=problem.weights, additive=problem.additive(names),
             max_iterations=20 if quick else s.get("max_iterations", 30),
             tolerance=1e-4 if quick else s.get("tolerance", 1e-6),
@@ -230,7 +227,7 @@ def fit_magnitude(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         warnings.simplefilter("ignore")
         res = finite_difference_update(
             lambda th: np.abs(predict(th)), np.abs(problem.data), theta0, names,
-            n_pairs=problem.n_pairs, weights=problem.weights,
+            n_pairs=None, weights=problem.weights,
             additive=problem.additive(names),
             max_iterations=s.get("max_iterations", 30), tolerance=s.get("tolerance", 1e-6),
             relative_step=s.get("relative_step", 1e-4))

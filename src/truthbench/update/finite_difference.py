@@ -149,7 +149,7 @@ def finite_difference_update(
     theta0: Mapping[str, float],
     names: Sequence[str],
     *,
-    n_pairs: int,
+    n_pairs: int | None,
     weights: np.ndarray | None = None,
     max_iterations: int = 20,
     tolerance: float = 1e-6,
@@ -172,8 +172,11 @@ def finite_difference_update(
         Starting parameter values (all model parameters).
     names : sequence of str
         Parameters to update (p of them).
-    n_pairs : int
-        Number of SISO transfer functions in the data (``m r``), checked against p.
+    n_pairs : int or None
+        Number of SISO transfer functions in the data (``m r``), checked against p (the
+        chapter's rule). None leaves the rule out: the diagnosis fits a few parameters
+        to thousands of lines of one transfer function, where the separability check
+        (the singular values of the sensitivity matrix) is the test that matters.
     weights : ndarray, optional
         Non-negative real weight of every data entry (frequency weighting), same shape
         as ``data``; the cost is ``sum |w (G_D - G_M)|^2``.
@@ -214,7 +217,7 @@ def finite_difference_update(
     Raises
     ------
     IdentifiabilityError
-        ``m r <= p``, or a parameter combination the data cannot see.
+        ``m r <= p`` (when ``n_pairs`` is given), or a parameter combination the data cannot see.
     """
     names = tuple(names)
     p = len(names)
@@ -233,7 +236,8 @@ def finite_difference_update(
     if zero:
         raise ValueError(f"relative updating needs non-zero starting values; got 0 for "
                          f"{zero} (update them additively: 'additive' scales)")
-    check_overdetermined(n_pairs, p)
+    if n_pairs is not None:
+        check_overdetermined(n_pairs, p)
     data = np.asarray(data)
     w = np.ones(data.shape) if weights is None else np.asarray(weights, dtype=float)
     if w.shape != data.shape:
