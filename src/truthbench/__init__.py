@@ -16,6 +16,8 @@ The objects a user starts from (imported on first use, so ``truthbench --help`` 
 ``estimate_frf``       H1/H2/Hv FRFs and coherence from time histories
 ``FRFData``            the FRF data type (channels, units, coherence, averages)
 ``load_frf``           FRFData from a file: UFF 58 (+ 164, 2411), LVM, our HDF5
+``load_model``         read a model file (the user's article) -> ``ModelSpec``
+``diagnose``           the effects a model lacks, from measured FRFs -> ``Diagnosis``
 =====================  ===================================================================
 
 The package is organised in rooms, lowest first (README, "How it works"): ``fe``,
@@ -49,6 +51,9 @@ _EXPORTS = {
     "Channel": "truthbench.measure.frfdata",
     # through the store, which registers the .h5/.hdf5 reader when it is imported
     "load_frf": "truthbench.campaign.store",
+    "load_model": "truthbench.campaign.model_file",
+    "diagnose": "truthbench.diagnose",
+    "Diagnosis": "truthbench.diagnose",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -6,7 +6,8 @@
 2. **Residual.** Every view of data against the baseline (:mod:`.residual`).
 3. **Candidates.** Every effect of the registry that declares a diagnosis form, at every
    location it can have (:mod:`.candidates`), is screened by the Lagrange-multiplier
-   test of adding it to the current fit (:func:`~.fit.score`); the ``refits`` best are
+   test of adding it to the current fit (:func:`~.fit.score`); the ``refits`` best, and
+   the best location of every other effect screened within a factor 2 of the best, are
    refitted (quick: forward differences, capped iterations) with the declared
    parameters and the effects already found, and so are the locations within two nodes
    of the best located one (a first-order score can rank a mirror image or a neighbour
@@ -371,11 +372,20 @@ def _diagnose(data, plant, nominal, parameters, settings):
             if start is not None:
                 results[c.label] = _refit(problem, current, accepted, c, drop, start, refs,
                                           n, step, tried, declared_start=base.theta)
-        # the best located ones, and every effect without a location (a handful) whose
-        # screened drop is within a factor 10 of the best: its screening is the roughest
+        # the best located ones, every effect without a location (a handful) whose
+        # screened drop is within a factor 10 of the best (its screening is the
+        # roughest), and the best location of every other located effect within a factor
+        # 2: screens of different effects are approximate in different ways (an exact
+        # point attachment on a grid of strengths against a joint's line search), so one
+        # effect's many locations must not crowd out another's best
         top = screened[0][0]
         chosen = list(screened[:settings.refits]) + [
             s for s in screened[settings.refits:] if s[1].node is None and s[0] > 0.1 * top]
+        kinds = {c.effect for _, c, _, _ in chosen}
+        for s_ in screened[settings.refits:]:
+            if s_[1].node is not None and s_[1].effect not in kinds and s_[0] > 0.5 * top:
+                chosen.append(s_)
+                kinds.add(s_[1].effect)
         for drop, c, guess, adapt in chosen:
             if c.label not in results:
                 results[c.label] = _refit(problem, current, accepted, c, drop, guess, refs,
