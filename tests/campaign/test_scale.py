@@ -164,7 +164,8 @@ def test_interrupt_kill_and_resume_equal_an_uninterrupted_run(small_file, refere
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 130, err
+    assert proc.returncode == 130, (f"stderr {err!r}; stored {sorted(store.done())}; "
+                                    f"results.h5 {(out / 'results.h5').exists()}")
     assert "Traceback" not in err
     lines = [x for x in err.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("interrupted:") and "--resume" in lines[0]

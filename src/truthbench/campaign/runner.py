@@ -579,8 +579,13 @@ class ProcessEngine(_Engine):
                 p.terminate()
         for p in procs:
             p.join(timeout=5)
-            if p.is_alive():  # pragma: no cover - a worker ignoring SIGTERM
-                p.kill()
+            if p.is_alive():  # a worker slow to end on SIGTERM (a loaded machine)
+                # loky's Popen has no kill(): signal the process itself
+                try:
+                    os.kill(p.pid, signal.SIGKILL)
+                except ProcessLookupError:  # it ended in between
+                    pass
+                p.join(timeout=5)
 
 
 class DaskEngine(_Engine):
