@@ -22,9 +22,6 @@ from truthbench.cli import main
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
 N_TRIALS = 8
-N_LONG = 32
-"""Trials of the interrupted run: enough that it cannot finish between its first stored
-trial and the signal (8 trials of a fraction of a second each could)."""
 
 
 def _small_text() -> str:
@@ -59,11 +56,6 @@ def _reference(spec, out, n):
 @pytest.fixture(scope="module")
 def reference(small_spec, tmp_path_factory):
     return _reference(small_spec, tmp_path_factory.mktemp("ref"), N_TRIALS)
-
-
-@pytest.fixture(scope="module")
-def reference_long(small_spec, tmp_path_factory):
-    return _reference(small_spec, tmp_path_factory.mktemp("ref_long"), N_LONG)
 
 
 def _datasets(path: Path) -> dict:
@@ -154,14 +146,14 @@ def test_worker_counts_and_dask_give_bitwise_identical_stores(small_spec, tmp_pa
 
 
 # ---- Ctrl-C, SIGKILL, then --resume ----------------------------------------------------
-def test_interrupt_kill_and_resume_equal_an_uninterrupted_run(small_file, reference_long,
+def test_interrupt_kill_and_resume_equal_an_uninterrupted_run(small_file, reference,
                                                               tmp_path):
     """Ctrl-C stops with one line and keeps the finished trials; a SIGKILL of the
     resumed run leaves its finished trials and no worker behind; a plain run then
     refuses to touch them; --resume completes the run, and the result equals an
     uninterrupted run dataset for dataset (no trial lost or repeated)."""
     out = tmp_path / "run"
-    args = [small_file, "--out", out, "--trials", N_LONG, "--jobs", 2]
+    args = [small_file, "--out", out, "--trials", N_TRIALS, "--jobs", 2]
     store = TrialStore(out)
     proc = _run_cli([*args, "-q"])
     try:
@@ -178,8 +170,8 @@ def test_interrupt_kill_and_resume_equal_an_uninterrupted_run(small_file, refere
     lines = [x for x in err.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("interrupted:") and "--resume" in lines[0]
     after_int = set(store.done())
-    assert f"{len(after_int)} of {N_LONG} trial(s) stored" in lines[0]
-    assert after_int and len(after_int) < N_LONG
+    assert f"{len(after_int)} of {N_TRIALS} trial(s) stored" in lines[0]
+    assert after_int and len(after_int) < N_TRIALS
     _wait_for(lambda: not any(_alive(p) for p in workers), 20, "the workers to end")
     assert not list(store.dir.glob("*.part"))
     # resume, and kill the main process with SIGKILL once it stored another trial
@@ -201,14 +193,14 @@ def test_interrupt_kill_and_resume_equal_an_uninterrupted_run(small_file, refere
     assert again.wait(60) == 2
     assert "--resume" in again.stderr.read()
     assert set(store.done()) == killed_with
-    resumed = _run_cli([small_file, "--out", out, "--trials", N_LONG, "--jobs", 1,
+    resumed = _run_cli([small_file, "--out", out, "--trials", N_TRIALS, "--jobs", 1,
                         "--resume", "-v"])  # any worker count: the same results
     _, err = resumed.communicate(timeout=300)
     assert resumed.returncode == 0, err
     ran_again = [int(line.split()[2]) for line in err.splitlines()
                  if line.startswith("INFO: trial ") and "stored" in line]
-    assert sorted(ran_again) == sorted(set(range(N_LONG)) - killed_with)
-    _assert_same(reference_long, out / "results.h5")
+    assert sorted(ran_again) == sorted(set(range(N_TRIALS)) - killed_with)
+    _assert_same(reference, out / "results.h5")
     assert (out / "report.html").exists() and not (out / "trials").exists()
 
 
