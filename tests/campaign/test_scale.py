@@ -87,11 +87,18 @@ def _assert_same(a: Path, b: Path) -> None:
     assert not different, different[:10]
 
 
+def _foreground_sigint():
+    """SIGINT as at a terminal: a shell starts background jobs (``cmd &``) with SIGINT
+    ignored, children inherit that, and Python then installs no KeyboardInterrupt
+    handler, so the run would never see the test's Ctrl-C."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _run_cli(args, **kw):
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     return subprocess.Popen([sys.executable, "-m", "truthbench", "run", *map(str, args)],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, **kw)
+                            text=True, preexec_fn=_foreground_sigint, **kw)
 
 
 def _children(pid: int) -> list[int]:
