@@ -214,13 +214,13 @@ def _modes(tests, problem: Problem, fit_: Fit, data_modes) -> tuple[ModeResidual
         rows = modal_table(model, modes)
         f = np.array([r["freq_hz"] for r in rows])
         z = np.nan_to_num(np.array([r["damping_ratio"] for r in rows]))
-        seen = np.linalg.norm(model.C_out @ modes.shapes, axis=0)
+        measured = model.C_out @ modes.shapes
+        seen = np.linalg.norm(measured, axis=0)
         # modes the measured DOFs do not see (torsion of a beam measured in bending)
         # cannot be paired with a measured mode
         keep = ~modes.rigid & (f >= t.freq_hz.min()) & (f <= t.freq_hz.max()) & \
             (seen > 1e-6 * max(float(seen.max()), 1e-300))
-        shapes = (model.C_out @ modes.shapes)[:, keep]
-        mm = ModalParameters(f[keep], z[keep], shapes)
+        mm = ModalParameters(f[keep], z[keep], measured[:, keep])
         dm = ModalParameters(ident.modal.freq_hz, ident.modal.damping_ratio,
                              ident.modal.shapes)
         if mm.n_modes == 0:
