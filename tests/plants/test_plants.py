@@ -85,8 +85,10 @@ def test_plant_bad_input():
         plant.resolve({"E": 1.0})
     with pytest.raises(ModelError, match="'L_m' must be a positive"):
         plant.resolve({"L_m": -1.0})
-    with pytest.raises(ModelError, match="not on a node"):
-        make_plant("free_free_beam", n_elements=20, stations={"odd": 0.33})
+    with pytest.raises(ModelError, match="station 'odd' at fraction 0.33 of the length lies "
+                                         "between nodes 6 and 7"):
+        make_plant("free_free_beam", n_elements=20, stations={"odd": 0.33}).build(
+            None, [], [Sensor("odd", "z")])
     with pytest.raises(ModelError, match="unknown plant type"):
         make_plant("tripod")
     with pytest.raises(ModelError, match="clamped"):

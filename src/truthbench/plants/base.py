@@ -12,17 +12,23 @@ The cross-section (``section``: ``"tube"``, ``"rectangular_bar"``, ``"circular_b
 ``nu``. The tube's dimensions default to the nominal tube of METHOD section 9; a bar's
 dimensions have no default and must be given.
 
-Stations are named points along the beam, given as a fraction of the element count
-(node ``fraction * n_elements``; equal to the fraction of the length when the groups
-have equal lengths); each must fall on a node of the mesh. Sensors and actuators are
-placed at stations. Positions in metres along the beam (from its first end) map to
-nodes with :meth:`Plant.node_at_m` / :meth:`Plant.fraction_at_m`, within a tolerance
-(:data:`DEFAULT_NODE_TOLERANCE_M`); :meth:`Plant.node_coordinates_m` and
+Stations are named points along the beam, given as a fraction of the element count in
+[0, 1]: the point ``fraction * n_elements`` counted in elements, a node when that is a
+whole number, else the point that far into element ``floor(fraction * n_elements)``
+(equal to the fraction of the length when the groups have equal lengths). Sensors,
+actuators and the effects that act on a nodal DOF (joints, friction, sensor mass) need
+a station on a node (:meth:`Plant.station_node`); point attachments (an added mass, a
+grounded spring or dashpot) may sit anywhere along the beam: they act through the
+element's shape functions at the point (:meth:`Plant.point_weights`,
+:attr:`StructuralAdditions.points`). Positions in metres along the beam (from its first
+end) map to nodes with :meth:`Plant.node_at_m` / :meth:`Plant.fraction_at_m`, within a
+tolerance (:data:`DEFAULT_NODE_TOLERANCE_M`); :meth:`Plant.node_coordinates_m` and
 :meth:`Plant.station_coordinates_m` give the coordinates of nodes and stations.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import ClassVar
@@ -70,6 +76,10 @@ DEFAULT_NODE_TOLERANCE_M = 1e-4
 
 #: Element counts up to this are searched when a position misses every node.
 _MAX_SUGGESTED_ELEMENTS = 2000
+
+#: A station ``fraction * n_elements`` within this many elements of a whole number is on
+#: that node (the rounding of a decimal fraction times the element count).
+_NODE_TOLERANCE_ELEMENTS = 1e-9
 
 _MATERIAL_INFO = {"E_pa": ("Pa", "Young's modulus"), "nu": ("-", "Poisson's ratio"),
                   "rho_kg_m3": ("kg/m^3", "density")}
@@ -144,7 +154,8 @@ class Plant:
         Element groups (equal numbers of elements; material, section and length values
         may differ per group).
     stations : mapping of str -> float
-        Extra named stations, fraction of the element count (must fall on a node).
+        Extra named stations, fraction of the element count in [0, 1] (see the module
+        docstring: a station between nodes can carry only point attachments).
     timoshenko : bool or float
         Shear-deformable elements with rotary inertia (a number scales both:
         :func:`~truthbench.fe.beam.element_matrices`).
@@ -177,8 +188,8 @@ class Plant:
                              f"({self.n_groups}) so that every group has whole elements")
         check_choice("section", self.section, SECTIONS, where=self.kind, error=ModelError)
         check_choice("material", self.material, MATERIALS, where=self.kind, error=ModelError)
-        for name in self.stations:  # user stations must lie on nodes
-            self.station_node(name)
+        for name, fraction in dict(self.stations).items():  # on the beam, not on a node
+            self._check_fraction(fraction, f"station {name!r}")
 
     # ---- groups and parameters -------------------------------------------------
     @property
@@ -316,8 +327,11 @@ class Plant:
 
     def station_coordinates_m(self, station: str,
                               params: Mapping[str, float] | None = None) -> np.ndarray:
-        """Coordinates (x, y, z) of a station's node, m, shape (3,)."""
-        return self.node_coordinates_m(params)[self.station_node(station)]
+        """Coordinates (x, y, z) of a station, m, shape (3,): its node, or the point
+        between two nodes (a station between nodes)."""
+        xyz = self.node_coordinates_m(params)
+        a, xi = self._mesh_point(self.station_fraction(station))
+        return xyz[a] if xi == 0.0 else (1.0 - xi) * xyz[a] + xi * xyz[a + 1]
 
     def node_at_m(self, x_m: float, params: Mapping[str, float] | None = None, *,
                   tolerance_m: float = DEFAULT_NODE_TOLERANCE_M) -> int:
@@ -389,19 +403,132 @@ class Plant:
     def station_fractions(self) -> dict[str, float]:
         return {**self.default_stations, **dict(self.stations)}
 
-    def station_node(self, station: str) -> int:
+    def station_fraction(self, station: str) -> float:
+        """The fraction of the element count of a station, in [0, 1], on a node or
+        between nodes.
+
+        Raises
+        ------
+        ModelError
+            The plant has no such station.
+        """
         fr = self.station_fractions()
         if station not in fr:
             raise ModelError(f"{self.kind} has no station {station!r}; stations are "
                              f"{', '.join(sorted(fr))}")
-        pos = fr[station] * self.n_elements
-        node = int(round(pos))
-        if not 0.0 <= fr[station] <= 1.0 or abs(pos - node) > 1e-9:
+        return fr[station]
+
+    def station_node(self, station: str) -> int:
+        """The node of a station.
+
+        Raises
+        ------
+        ModelError
+            The plant has no such station, or the station lies between two nodes
+            (only point attachments can sit there: :meth:`point_weights`).
+        """
+        fraction = self.station_fraction(station)
+        a, xi = self._mesh_point(fraction)
+        if xi != 0.0:
             raise ModelError(
-                f"station {station!r} at fraction {fr[station]!r} of the length is not on a "
-                f"node of the {self.n_elements}-element mesh (nodes every "
-                f"1/{self.n_elements} of the length)")
-        return node
+                f"station {station!r} at fraction {fraction!r} of the length lies between "
+                f"nodes {a} and {a + 1} of the {self.n_elements}-element mesh (nodes every "
+                f"1/{self.n_elements} of the length); only point attachments (an added "
+                f"mass, a grounded spring or dashpot) can sit between nodes: sensors, "
+                f"actuators, joints, friction and sensor mass need a station on a node")
+        return a
+
+    def _check_fraction(self, fraction, what: str) -> None:
+        """Raise :class:`ModelError` unless ``fraction`` is a number in [0, 1]."""
+        if isinstance(fraction, bool) or not isinstance(
+                fraction, int | float | np.integer | np.floating) \
+                or not 0.0 <= fraction <= 1.0:
+            raise ModelError(f"{what} at fraction {fraction!r} is off the beam; expected a "
+                             f"fraction of the length in [0, 1]")
+
+    def _mesh_point(self, fraction: float) -> tuple[int, float]:
+        """``(node, 0.0)`` for a fraction on a node; ``(a, xi)`` for a point between
+        node ``a`` and ``a + 1``, ``xi`` in (0, 1) its local coordinate."""
+        pos = fraction * self.n_elements
+        node = int(round(pos))
+        if abs(pos - node) <= _NODE_TOLERANCE_ELEMENTS:
+            return node, 0.0
+        a = math.floor(pos)
+        return a, pos - a
+
+    def point_weights(self, position: str | float, direction: str,
+                      params: Mapping[str, float] | None = None
+                      ) -> tuple[tuple[int, float], ...]:
+        """The displacement of a point of the beam as a weighted sum of nodal DOFs.
+
+        The DOF ``direction`` at the point is ``q(point) = sum(w * q[dof])`` over the
+        returned pairs, from the shape functions of the element the point falls in: the
+        cubic Hermite functions for the transverse translations y and z (weights on
+        ``w_A, theta_A, w_B, theta_B``, with this code's rotations
+        ``theta_z = +dv/dx``, ``theta_y = -dw/dx``), linear functions for the axial
+        translation x and for the rotations rx, ry, rz. A rotation between nodes is the
+        rotation of the cross-section there, interpolated linearly between the nodal
+        rotations (the element's own twist field for rx; for the bending rotations ry,
+        rz the usual choice, equal to the slope of the Hermite cubic at the nodes and
+        within O(h^2) of it between them). For the Timoshenko element the Hermite
+        functions are those of its Euler-Bernoulli limit.
+
+        A point on a node (within 1e-9 of an element, as :meth:`station_node`) gives
+        that node's DOF alone with weight exactly 1.0. Cheap: a few arithmetic
+        operations, no model is built.
+
+        Parameters
+        ----------
+        position : str or float
+            A station name, or a fraction of the element count in [0, 1] (as a station:
+            the fraction of the length when the element groups have equal lengths).
+        direction : {"x", "y", "z", "rx", "ry", "rz"}
+            The DOF at the point.
+        params : mapping, optional
+            Plant parameters; only ``L_m`` and ``L_m@g`` are used (the element's length,
+            which scales the rotation weights of y and z). Default: the default length.
+            Resolved parameters (with ``L_m``) are read as they are, a partial mapping
+            is checked as in :meth:`node_coordinates_m`.
+
+        Returns
+        -------
+        tuple of (int, float)
+            ``(dof, weight)``: global (unreduced) DOF index ``6 * node + direction``
+            and its dimensionless weight (m/rad on a rotation DOF of a y or z point).
+            One pair on a node, two for a linear point, four for a Hermite point.
+
+        Raises
+        ------
+        ModelError
+            Unknown station or direction, or a fraction outside [0, 1].
+        """
+        if isinstance(position, str):
+            fraction = self.station_fraction(position)  # checked by the constructor
+        else:
+            fraction = position
+            self._check_fraction(fraction, "point")
+        if direction not in DIRECTIONS:
+            raise ModelError(f"point direction must be one of {', '.join(DIRECTIONS)}; "
+                             f"got {direction!r}")
+        d = DIRECTIONS.index(direction)
+        a, xi = self._mesh_point(float(fraction))
+        ga, gb = 6 * a + d, 6 * (a + 1) + d
+        if xi == 0.0:
+            return ((ga, 1.0),)
+        if direction not in ("y", "z"):
+            return ((ga, 1.0 - xi), (gb, xi))
+        per = self.n_elements // self.n_groups
+        h = float(self.group_lengths_m(params)[a // per]) / per \
+            if params and "L_m" in params else math.nan
+        if not 0.0 < h < math.inf:  # default length, or checked (raises if bad)
+            h = float(self.group_lengths_m(self._length_parameters(params))[a // per]) / per
+        # the rotation DOF of this bending plane, and the sign of theta = sign * dw/dx
+        rot, sign = (5, 1.0) if direction == "y" else (4, -1.0)
+        xi2 = xi * xi
+        return ((ga, 1.0 - 3.0 * xi2 + 2.0 * xi2 * xi),
+                (6 * a + rot, sign * h * xi * (1.0 - xi) ** 2),
+                (gb, xi2 * (3.0 - 2.0 * xi)),
+                (6 * (a + 1) + rot, sign * h * xi2 * (xi - 1.0)))
 
     # ---- the model ---------------------------------------------------------------
     def mesh(self, params: Mapping[str, float]) -> BeamMesh:
@@ -551,14 +678,20 @@ class StructuralAdditions:
         Element stiffness multiplied by ``factor`` (a joint's stiffness loss: 1 - loss).
     sag_angles_rad : ndarray, shape (n_elements,), optional
         Element sag angles (METHOD section 3).
+    points : tuple of (kind, ((dof, weight), ...), value)
+        Grounded mass, spring or dashpot on the displacement ``u^T q`` of one DOF at a
+        point between nodes (``u`` the weights of :meth:`Plant.point_weights`): adds
+        ``value * u u^T`` to M, K or C (kg, N/m, N s/m; N m/rad, N m s/rad on a
+        rotation). A point with one weight of 1.0 is the grounded link at that DOF.
     """
 
     links: tuple[tuple[str, int, int, float], ...] = ()
     element_stiffness_scale: tuple[tuple[int, float], ...] = ()
     sag_angles_rad: np.ndarray | None = None
+    points: tuple[tuple[str, tuple[tuple[int, float], ...], float], ...] = ()
 
     def matrices(self, n: int):
-        """Sparse (n, n) additions to M, C and K."""
+        """Sparse (n, n) additions to M, C and K: the links, then the points."""
         out = {"mass": [], "dashpot": [], "spring": []}
         for kind, a, b, v in self.links:
             if kind not in out:
@@ -569,6 +702,16 @@ class StructuralAdditions:
                 out[kind].append(([a], [a], [v]))
             else:
                 out[kind].append(([a, a, b, b], [a, b, a, b], [v, -v, -v, v]))
+        for kind, weights, v in self.points:
+            dofs = [g for g, _ in weights]
+            if kind not in out:
+                raise ModelError(f"unknown point kind {kind!r}; expected mass, spring or "
+                                 f"dashpot")
+            if not all(0 <= g < n for g in dofs):
+                raise ModelError(f"point DOFs {tuple(dofs)} outside 0..{n - 1}")
+            u = np.array([w for _, w in weights], dtype=float)
+            out[kind].append((np.repeat(dofs, len(dofs)), np.tile(dofs, len(dofs)),
+                              v * np.outer(u, u).ravel()))
 
         def build(entries):
             if not entries:
