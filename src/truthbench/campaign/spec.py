@@ -734,9 +734,10 @@ def _check_references(spec: CampaignSpec) -> None:
     for j in range(len(spec.tests)):
         effects += [(f"tests[{j}].effects[{k}]", e) for k, e in enumerate(spec.test_effects(j))]
     for where, eff in effects:  # stations named in effect options must exist
-        if "station" in eff.options:
+        if "station" in eff.options:  # (on a node, unless the effect is a point attachment)
+            locate = plant.station_fraction if eff.effect.between_nodes else plant.station_node
             try:
-                plant.station_node(eff.options["station"])
+                locate(eff.options["station"])
             except ModelError as exc:
                 raise CampaignError(f"{src}: key '{where}.station': effect {eff.name!r}: "
                                     f"{exc}; got {eff.options['station']!r}") from None

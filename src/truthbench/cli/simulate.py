@@ -34,8 +34,9 @@ def _cmd_simulate(args) -> int:
     plant = spec.make_plant()
     for text, eff in zip(args.inject, extra, strict=True):
         if "station" in eff.options:
+            locate = plant.station_fraction if eff.effect.between_nodes else plant.station_node
             try:
-                plant.station_node(eff.options["station"])
+                locate(eff.options["station"])
             except ModelError as exc:
                 raise CampaignError(f"--inject {text!r}: option 'station': {exc}; got "
                                     f"{eff.options['station']!r}") from None

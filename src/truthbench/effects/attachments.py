@@ -5,6 +5,13 @@ They stand for what a model often lacks at a point: a support, a cable or a fixt
 that adds stiffness (a spring), or concentrated damping (a dashpot, non-proportional
 damping). ``direction`` is the DOF: a translation (x, y, z: N/m, N s/m) or a rotation
 (rx, ry, rz: N m/rad, N m s/rad).
+
+The station may lie on a node or between nodes. The element acts on the displacement
+``u^T q`` of its DOF at the point, ``u`` the weights of
+:meth:`~truthbench.plants.base.Plant.point_weights` (Hermite functions for y and z,
+linear for x and the rotations): a spring ``k`` adds ``k u u^T`` to K, a dashpot ``c``
+adds ``c u u^T`` to C. On a node ``u`` is that DOF alone with weight 1: ``k`` (``c``) on
+the diagonal, as a lumped element.
 """
 
 from __future__ import annotations
@@ -18,12 +25,15 @@ from truthbench.effects.base import (
     FitParam,
     register_effect,
 )
-from truthbench.fe.assembly import direction_index
 
 
-def _dof(setup, options) -> int:
-    return 6 * setup.plant.station_node(options["station"]) + direction_index(
-        options["direction"])
+def _attach(setup, options, kind: str, value: float) -> None:
+    """``value`` of ``kind`` to ground at the effect's station and direction (checked
+    even when ``value`` is 0; nothing is added then, so a fit is smooth through 0)."""
+    weights = setup.plant.point_weights(options["station"], options["direction"],
+                                        setup.parameters)
+    if value != 0:
+        setup.attach(kind, weights, value)
 
 
 @register_effect
@@ -34,14 +44,13 @@ class GroundedSpring(Effect):
     params: ClassVar = (EffectParam("stiffness_n_m", 0.0, "stiffness, N/m (N m/rad for a "
                                     "rotation)", 0.0),)
     options: ClassVar = {"station": None, "direction": "z"}
+    between_nodes: ClassVar[bool] = True
     diagnosis: ClassVar = Diagnosable(
         (FitParam("stiffness_n_m", "stiffness", 0.01, minimum=0.0),), location="station",
         directions="translation")
 
     def contribute(self, values, options, setup):
-        dof = _dof(setup, options)
-        if values["stiffness_n_m"] != 0:
-            setup.links.append(("spring", dof, -1, values["stiffness_n_m"]))
+        _attach(setup, options, "spring", values["stiffness_n_m"])
 
 
 @register_effect
@@ -52,11 +61,10 @@ class GroundedDashpot(Effect):
     params: ClassVar = (EffectParam("damping_n_s_m", 0.0, "damping, N s/m (N m s/rad for a "
                                     "rotation)", 0.0),)
     options: ClassVar = {"station": None, "direction": "z"}
+    between_nodes: ClassVar[bool] = True
     diagnosis: ClassVar = Diagnosable(
         (FitParam("damping_n_s_m", "damping", 0.01, minimum=0.0),), location="station",
         directions="translation")
 
     def contribute(self, values, options, setup):
-        dof = _dof(setup, options)
-        if values["damping_n_s_m"] != 0:
-            setup.links.append(("dashpot", dof, -1, values["damping_n_s_m"]))
+        _attach(setup, options, "dashpot", values["damping_n_s_m"])

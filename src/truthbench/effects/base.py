@@ -128,6 +128,10 @@ class Effect:
 
     diagnosis: ClassVar[Diagnosable | None] = None
     """How diagnosis fits this effect as a missing one (None: it is not a candidate)."""
+    between_nodes: ClassVar[bool] = False
+    """True when the effect's ``station`` may lie between nodes (a point attachment,
+    through :meth:`~truthbench.plants.base.Plant.point_weights`); False when it needs
+    a node (:meth:`~truthbench.plants.base.Plant.station_node`)."""
 
     @classmethod
     def neutral_values(cls) -> tuple[dict[str, float], dict[str, object]] | None:

@@ -10,7 +10,7 @@ store records. :func:`realise` does it in one call for effects at chosen values.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from truthbench.effects.base import EffectSpec, mean_values
 from truthbench.effects.hardware import Hardware
@@ -27,6 +27,7 @@ class SetupBuilder:
     actuators: tuple[Actuator, ...] = ()
     sensors: tuple[Sensor, ...] = ()
     links: list = field(default_factory=list)
+    points: list = field(default_factory=list)
     element_scale: list = field(default_factory=list)
     sag_scale: float = 0.0
     gravity_m_s2: float = 9.80665
@@ -51,6 +52,19 @@ class SetupBuilder:
         base = name.split("@")[0]
         self.parameters[name] = self.parameters.get(name, self.parameters[base]) * factor
 
+    def attach(self, kind: str, weights, value: float) -> None:
+        """A grounded point attachment: ``value`` (kind "mass", "spring" or "dashpot")
+        on the displacement ``sum(w * q[dof])`` of ``weights``
+        (:meth:`~truthbench.plants.base.Plant.point_weights`). On a node (one weight of
+        1.0) it is the grounded link at that DOF, kept in :attr:`links` in the order the
+        effects contribute, so the assembled matrices are the same to the last bit as
+        those of a link; between nodes it is a point of
+        :attr:`~truthbench.plants.base.StructuralAdditions.points`."""
+        if len(weights) == 1 and weights[0][1] == 1.0:
+            self.links.append((kind, weights[0][0], -1, value))
+        else:
+            self.points.append((kind, tuple(weights), value))
+
     def add(self, spec: EffectSpec, values: Mapping[str, float] | None = None,
             label: str | None = None) -> None:
         """Let one effect contribute with ``values`` (default its means) and record them
@@ -63,12 +77,12 @@ class SetupBuilder:
         self.effects[label] = {"scope": spec.scope, **spec.options, **values}
 
     def freeze(self) -> Hardware:
-        additions = StructuralAdditions(tuple(self.links), tuple(self.element_scale))
+        additions = StructuralAdditions(tuple(self.links), tuple(self.element_scale),
+                                        points=tuple(self.points))
         if self.sag_scale:
             angles = sag_angles(self.plant, self.parameters, additions,
                                 self.gravity_m_s2 * self.sag_scale)
-            additions = StructuralAdditions(additions.links, additions.element_stiffness_scale,
-                                            angles)
+            additions = replace(additions, sag_angles_rad=angles)
         return Hardware(
             plant=self.plant, parameters=dict(self.parameters), actuators=self.actuators,
             sensors=self.sensors, additions=additions,

@@ -186,17 +186,31 @@ class Joint(Effect):
 
 @register_effect
 class AddedMass(Effect):
+    """A point mass at a station, on a node or between nodes.
+
+    The mass ``m`` (kg) moves with the beam's translations x, y, z at its point: for each
+    translation ``d`` it adds ``m u_d u_d^T`` to M, with ``u_d`` the weights of
+    :meth:`~truthbench.plants.base.Plant.point_weights` (kinetic energy
+    ``m/2 (u_d^T dq/dt)^2``). On a node that is ``m`` on the node's three translations, as
+    a lumped mass. Between nodes ``u_y``, ``u_z`` are the element's Hermite functions and
+    include the nodal rotations, so ``u u^T`` also puts inertia on the rotations and
+    couples them with the translations: this is the consistent mass of a point mass, the
+    inertia of the point's translation expressed through the nodal DOFs, not a rotary
+    inertia of the mass about its own centre (a point mass has none).
+    """
+
     name: ClassVar[str] = "added_mass"
     description: ClassVar[str] = "a point mass at a station (structural change, Table 10.4)"
     params: ClassVar = (EffectParam("mass_kg", 0.0, "added mass, kg", 0.0),)
     options: ClassVar = {"station": None}
+    between_nodes: ClassVar[bool] = True
     diagnosis: ClassVar = Diagnosable((FitParam("mass_kg", "mass", 0.01, minimum=0.0),),
                                       location="station")
 
     def contribute(self, values, options, setup):
-        node = setup.plant.station_node(options["station"])
-        for d in range(3):
-            setup.links.append(("mass", 6 * node + d, -1, values["mass_kg"]))
+        for d in ("x", "y", "z"):
+            weights = setup.plant.point_weights(options["station"], d, setup.parameters)
+            setup.attach("mass", weights, values["mass_kg"])
 
 
 @register_effect
@@ -271,10 +285,7 @@ def sag_angles(plant, params, additions, g_m_s2: float) -> np.ndarray:
     -------
     ndarray, shape (n_elements,)
     """
-    from truthbench.plants.base import StructuralAdditions
-
-    flat = StructuralAdditions(additions.links, additions.element_stiffness_scale)
-    model = plant.build(params, additions=flat)
+    model = plant.build(params, additions=replace(additions, sag_angles_rad=None))
     labels = np.array(model.dof_labels)
     vert = np.array([lab.endswith((".z", ".ry")) for lab in labels])
     z = np.array([lab.endswith(".z") for lab in labels])
