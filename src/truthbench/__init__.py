@@ -16,6 +16,8 @@ The objects a user starts from (imported on first use, so ``truthbench --help`` 
 ``estimate_frf``       H1/H2/Hv FRFs and coherence from time histories
 ``FRFData``            the FRF data type (channels, units, coherence, averages)
 ``load_frf``           FRFData from a file: UFF 58 (+ 164, 2411), LVM, our HDF5
+``load_measurements``  FRFData from several files: coherence-only UFF files paired,
+                       excitation levels by data-set name
 ``load_model``         read a model file (the user's article) -> ``ModelSpec``
 ``diagnose``           the effects a model lacks, from measured FRFs -> ``Diagnosis``
 =====================  ===================================================================
@@ -51,6 +53,7 @@ _EXPORTS = {
     "Channel": "truthbench.measure.frfdata",
     # through the store, which registers the .h5/.hdf5 reader when it is imported
     "load_frf": "truthbench.campaign.store",
+    "load_measurements": "truthbench.io",  # the store imported first: see __getattr__
     "load_model": "truthbench.campaign.model_file",
     "diagnose": "truthbench.diagnose",
     "Diagnosis": "truthbench.diagnose",
@@ -65,6 +68,8 @@ def __getattr__(name: str):
         module = _EXPORTS[name]
     except KeyError:
         raise AttributeError(f"module 'truthbench' has no attribute {name!r}") from None
+    if name == "load_measurements":  # reads .h5 too: the store registers that reader
+        importlib.import_module("truthbench.campaign.store")
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value

@@ -495,6 +495,62 @@ def _uff_cut_mid() -> bytes:
     return raw[: len(raw) * 2 // 3]
 
 
+def _coh_uff(*, lines: float = 1.0, value: float = 0.9, load_case: int = 1) -> bytes:
+    """Coherence sets only (function type 6, written with pyuff) of the two FRF pairs of
+    :func:`_uff_text` (points 1 and 2 / point 1, +z, load case 1), as acquisition
+    systems export them."""
+    import tempfile
+
+    import numpy as np
+    import pyuff
+
+    f = np.arange(0, 201) * 0.5 * lines
+    sets = [{"type": 58, "func_type": 6, "rsp_node": node, "rsp_dir": 3, "ref_node": 1,
+             "ref_dir": 3, "load_case_id": load_case, "abscissa_spacing": 1,
+             "orddenom_spec_data_type": 0, "x": f, "data": np.full(f.size, value)}
+            for node in (2, 1)]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "c.uff"
+        pyuff.UFF(str(path)).write_sets(sets, mode="add")
+        return path.read_bytes()
+
+
+def _model(levels: str | None = None) -> bytes:
+    """The steel tube as a model file, with ``[diagnose] input_rms_n = { levels }``."""
+    text = (ROOT / "campaigns" / "steel_tube.toml").read_text()
+    if levels is not None:
+        text += f"\n[diagnose]\ninput_rms_n = {{ {levels} }}\n"
+    return text.encode()
+
+
+def _diagnose_case(id_, data, files, expect, levels=None):
+    argv = ("diagnose", *(f"{DIR}/{name}" for name in data), "--model", f"{DIR}/m.toml")
+    return Case(f"data-diagnose-{id_}", argv, (*files, ("m.toml", _model(levels))), expect)
+
+
+FRF_OK = ("x.uff", _uff_text())
+DIAGNOSE_CASES = [
+    _diagnose_case("coherence-other-lines", ["x.uff", "c.uff"],
+                   [FRF_OK, ("c.uff", _coh_uff(lines=2.0))], "expected the same lines"),
+    _diagnose_case("coherence-of-no-frf", ["x.uff", "c.uff"],
+                   [FRF_OK, ("c.uff", _coh_uff(load_case=2))], "pairs with no FRF set"),
+    _diagnose_case("coherence-twice", ["c.uff", "x.uff", "d.uff"],
+                   [FRF_OK, ("c.uff", _coh_uff()), ("d.uff", _coh_uff())],
+                   "a second coherence set of this FRF pair"),
+    _diagnose_case("coherence-above-1", ["x.uff", "c.uff"],
+                   [FRF_OK, ("c.uff", _coh_uff(value=1.5))], "outside [0, 1]"),
+    _diagnose_case("coherence-alone", ["c.uff"], [("c.uff", _coh_uff())],
+                   "holds only coherence sets"),
+    _diagnose_case("file-twice", ["x.uff", "x.uff"], [FRF_OK], "given twice"),
+    _diagnose_case("levels-unknown-name", ["x.uff"], [FRF_OK], "'nope' names no data set",
+                   levels='"nope" = 1.0'),
+    _diagnose_case("levels-per-input", ["x.uff"], [FRF_OK], "expected one number for every "
+                   "input or one per input", levels='"t" = [1.0, 2.0]'),
+    _diagnose_case("levels-negative", ["x.uff"], [FRF_OK], "key 'diagnose.input_rms_n'",
+                   levels='"t" = -1.0'),
+    _data_case("uff-coherence-only", "c.uff", _coh_uff(), "holds only coherence sets"),
+]
+
 DATA_CASES = [
     _data_case("lvm-nan-force", "x.lvm", _lvm(_nan_force), "non-finite value"),
     _data_case("lvm-nan-acc", "x.lvm", _lvm(_nan_acc), "Acceleration (Trigger)"),
@@ -644,7 +700,7 @@ ARG_CASES = [
     _arg_case("modes-count-text", ["modes", C, "--count", "all"], "--count"),
 ]
 
-CASES = CAMPAIGN_CASES + FILE_CASES + DATA_CASES + ARG_CASES
+CASES = CAMPAIGN_CASES + FILE_CASES + DATA_CASES + DIAGNOSE_CASES + ARG_CASES
 
 
 # ----------------------------------------------------------------------------- the checks

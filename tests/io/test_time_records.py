@@ -133,3 +133,32 @@ def test_uff_time_without_input_channel(tmp_path):
     with pytest.raises(DataFormatError, match=r"noin\.uff: no input channel among \['acc1 "
                                               r"\(m/s\^2\)', 'acc2 \(m/s\^2\)'\]"):
         load_frf(path)
+
+
+def test_the_input_level_of_a_uff_time_file_in_kn_is_its_rms_in_newtons(tmp_path):
+    """UFF time sets written with pyuff in mm and kN (dataset 164): the force's RMS about
+    its mean, in N, is the input level; the FRF's band is the excited one."""
+    import pyuff
+
+    fs, n = 512.0, 4096
+    k = np.arange(n)
+    force_n = 2.0 * np.sin(2 * np.pi * 40 * k / n) + 1.0 * np.sin(2 * np.pi * 97 * k / n + 1)
+    acc = np.convolve(force_n, np.exp(-np.arange(60) / 8.0) * np.cos(0.7 * np.arange(60)))[:n]
+    sets = [pyuff.prepare_164(units_code=9, units_description="mm kN", temp_mode=1,
+                              length=1000.0, force=1e-3, temp=1.0, temp_offset=273.15)]
+    for node, code, lab, values in ((1, 13, "kN", force_n * 1e-3 + 0.02),
+                                    (2, 12, "mm/s^2", acc * 1e3)):
+        sets.append({"type": 58, "func_type": 1, "rsp_node": node, "rsp_dir": 3,
+                     "ref_node": 0, "ref_dir": 0, "abscissa_spacing": 1,
+                     "abscissa_spec_data_type": 17, "abscissa_axis_units_lab": "s",
+                     "ordinate_spec_data_type": code, "ordinate_axis_units_lab": lab,
+                     "orddenom_spec_data_type": 0, "x": k / fs, "data": values})
+    path = tmp_path / "time_kN.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    (d,) = load_frf(path, n_averages=4)
+    # 12 significant digits per value in the file: each sample off by at most 5e-12 of
+    # its size (offset included), so the RMS by at most that over the RMS
+    rms = np.sqrt((2.0**2 + 1.0**2) / 2)
+    bound = 5e-12 * np.max(np.abs(force_n * 1e-3 + 0.02)) * 1e3 / rms
+    assert d.input_rms == pytest.approx((rms,), rel=bound)
+    assert d.band_hz[0] <= 40 * fs / n and d.band_hz[1] >= 97 * fs / n

@@ -107,6 +107,28 @@ def test_impact_record_decay_band_and_no_coherence():
     assert any("force window" in note for note in d.notes)
 
 
+def test_input_rms_is_the_records_rms_about_its_baseline():
+    """A multisine on whole periods of the record has RMS sqrt(sum a_k^2 / 2) about its
+    mean (the cross terms and the mean of each sine vanish over whole periods); a
+    half-sine pulse of w samples sin(pi (k + 1/2) / w) has sum of squares w / 2 exactly.
+    Round-off: one rounding per sample value and numpy's pairwise sum of n squares,
+    ~ log2(n) eps."""
+    fs, n = 256.0, 4096
+    k = np.arange(n)
+    tones = ((3.0, 10), (1.5, 37), (0.5, 250))  # (amplitude N, periods in the record)
+    x = 0.7 + sum(a * np.sin(2 * np.pi * m * k / n + 0.3 * m) for a, m in tones)
+    rtol = 20 * np.log2(n) * np.finfo(float).eps
+    for x2 in (x, np.vstack([x, 0.5 * x[::-1] - 4.0])):
+        d = frfs_from_time(x2, np.roll(x, 5), fs, excitation="random")
+        rms = np.sqrt(sum(a**2 / 2 for a, _ in tones))
+        np.testing.assert_allclose(d.input_rms, [rms, 0.5 * rms][:np.ndim(x2)], rtol=rtol)
+    peak, width = 50.0, 8
+    u = half_sine(2000, width=width, peak=peak, baseline=0.1)
+    d = frfs_from_time(u, np.convolve(u - 0.1, np.exp(-np.arange(50) / 9.0))[:2000], 1000.0)
+    assert d.excitation == "impact"
+    np.testing.assert_allclose(d.input_rms, [peak * np.sqrt(width / 2 / 2000)], rtol=rtol)
+
+
 def test_errors_name_the_source():
     with pytest.raises(DataFormatError, match=r"rec: input and output records differ in "
                                               r"length \(10 and 12 samples\)"):

@@ -456,10 +456,36 @@ class DiagnoseSpec(_Strict):
     averages: Annotated[int, Field(ge=1)] | None = None
     """Their number of averages (UFF FRF sets do not say): with the coherence it sets the
     noise weight of every value; without it the fit weights values relatively."""
+    input_rms_n: dict[str, float | list[float]] = Field(default_factory=dict)
+    """Data-set name -> the RMS of its input over the record, N (N m for a moment): one
+    number for every input or a list, one per input. Coulomb friction is tried only when
+    every test's level is known, which UFF FRF sets do not carry (time records and our
+    HDF5 files do). A UFF load case is named by its sets' ID line 1 when they all carry
+    the same one, else ``"<file stem> load case <n>"`` (n: record 6 field 4) when the
+    file holds several load cases, else ``"<file stem>"``; an LVM record by its file
+    stem; a test of our HDF5 files ``"trial <k> / <test>"``
+    (:func:`truthbench.io.load_measurements`). Applied when the data are loaded, not by
+    :meth:`settings`."""
     study: StudySpec = Field(default_factory=StudySpec)
 
+    @field_validator("input_rms_n", mode="before")
+    @classmethod
+    def _levels(cls, v):
+        if not isinstance(v, Mapping):
+            return v  # the type check names it
+        for name, level in v.items():
+            values = level if isinstance(level, list) else [level]
+            ok = [isinstance(x, Real) and not isinstance(x, bool) and math.isfinite(x)
+                  and x > 0 for x in values]
+            if not name.strip() or not values or not all(ok):
+                raise PydanticCustomError(
+                    "level", f"a data-set name -> a number > 0 (its input's RMS, N) or a "
+                    f"non-empty list of them (one per input); {name!r} has {level!r}")
+        return v
+
     def settings(self) -> dict[str, Any]:
-        """Keyword arguments of :func:`truthbench.diagnose.diagnose`."""
+        """Keyword arguments of :func:`truthbench.diagnose.diagnose` (``input_rms_n`` is
+        not one: it goes to :func:`truthbench.io.load_measurements`)."""
         return {"candidates": None if self.candidates is None else tuple(self.candidates),
                 "band_hz": self.band_hz, "tolerance_m": self.tolerance_m,
                 "point_map": {int(k): v for k, v in self.map.items()},

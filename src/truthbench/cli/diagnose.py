@@ -7,17 +7,18 @@ from __future__ import annotations
 def _cmd_diagnose(args) -> int:
     import json
 
+    import truthbench.campaign.store  # noqa: F401  (registers the .h5 reader)
     from truthbench.campaign.model_file import load_model
-    from truthbench.campaign.store import load_frf  # the .h5 reader registers with it
     from truthbench.diagnose import diagnose
+    from truthbench.io import load_measurements
     from truthbench.report.format import pct, sig
 
     spec = load_model(args.model)
-    data = []
-    for path in args.data:
-        options = {"trials": args.trial} if args.trial is not None and \
-            str(path).lower().endswith((".h5", ".hdf5")) else {}
-        data += list(load_frf(path, **options))
+    h5 = any(str(p).lower().endswith((".h5", ".hdf5")) for p in args.data)
+    options = {"trials": args.trial} if args.trial is not None and h5 else {}
+    data = load_measurements(args.data, input_rms_n=spec.diagnose.input_rms_n,
+                             levels_from=f"{spec.source}: key 'diagnose.input_rms_n'",
+                             **options)
     settings = spec.diagnose.settings()
     for key in ("max_effects", "threshold"):
         if getattr(args, key) is not None:
@@ -62,11 +63,17 @@ def register(subparsers) -> None:
         description="Fit the model's declared parameters to measured FRFs (the baseline), "
                     "then try every effect of the registry that can be missing at every "
                     "location and add the best while it is significant (delta BIC); print "
-                    "the FRF error before and after.",
-        epilog="example: truthbench diagnose data.uff --model campaigns/steel_tube.toml "
-               "--out results/diagnosis")
+                    "the FRF error before and after. A UFF file of coherence sets only is "
+                    "paired with the FRF sets of the other files by node, direction and "
+                    "load case. Coulomb friction is tried when every test's input level is "
+                    "known: time records and truthbench .h5 files carry it; for UFF FRFs "
+                    "give it in the model file, [diagnose] input_rms_n = { \"<data set>\" = "
+                    "<N RMS> }.",
+        epilog="example: truthbench diagnose frf.uff coherence.uff --model "
+               "campaigns/steel_tube.toml --out results/diagnosis")
     d.add_argument("data", nargs="+",
-                   help="measured FRFs: UFF 58 (+164, 2411), LVM, or a truthbench .h5")
+                   help="measured FRFs: UFF 58 (+164, 2411; coherence in the same or its own "
+                        "file), LVM, or a truthbench .h5")
     d.add_argument("--model", required=True,
                    help="model file: [plant], [update] parameters, [diagnose] (a campaign "
                         "file works too)")

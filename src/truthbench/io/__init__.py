@@ -4,9 +4,14 @@
   into a tuple of FRFData with the reader registered for its extension, and the
   :func:`register_reader` hook (the campaign store registers ``.h5`` / ``.hdf5`` when it
   is imported; ``import truthbench`` imports it).
+- :mod:`truthbench.io.measurements`: :func:`load_measurements`, several data files as
+  acquisition systems export them: coherence-only UFF files paired with their FRF sets,
+  excitation levels (``input_rms_n``) by data-set name.
 - :mod:`truthbench.io.uff_frf`: :func:`read_uff` (the ``.uff`` / ``.unv`` reader: FRF
-  and coherence sets, units from dataset 164, points from 2411) and :func:`write_uff`
-  (151, 164, 2411, 58), with the point numbering rule :func:`number_points`.
+  and coherence sets, units from dataset 164, points from 2411), :func:`read_uff_files`
+  (several files, coherence files paired by node, direction and load case) and
+  :func:`write_uff` (151, 164, 2411, 58), with the point numbering rule
+  :func:`number_points`.
 - :mod:`truthbench.io.uff`: the dataset-58 layer, :func:`write_uff58_frf`,
   :func:`write_uff58_time`, :func:`read_uff58` -> :class:`UFFData` (raw arrays, through
   pyuff).
@@ -31,6 +36,7 @@ from truthbench.io.lvm import (
     read_lvm,
     to_si,
 )
+from truthbench.io.measurements import load_measurements
 from truthbench.io.registry import load_frf, register_reader, registered_extensions
 from truthbench.io.time_records import frf_from_record, read_lvm_frf
 from truthbench.io.uff import (
@@ -48,6 +54,7 @@ from truthbench.io.uff_frf import (
     PointNumbers,
     number_points,
     read_uff,
+    read_uff_files,
     write_uff,
 )
 from truthbench.io.units import SI, UnitSystem, parse_unit
@@ -73,12 +80,14 @@ __all__ = [
     "frf_from_record",
     "ladisk_beam_impact",
     "load_frf",
+    "load_measurements",
     "number_points",
     "parse_unit",
     "read_lvm",
     "read_lvm_frf",
     "read_uff",
     "read_uff58",
+    "read_uff_files",
     "register_reader",
     "registered_extensions",
     "to_si",

@@ -88,16 +88,24 @@ def registered_extensions() -> tuple[str, ...]:
     return tuple(sorted(_READERS))
 
 
-def _check_options(p: Path, ext: str, reader: Reader, options: dict) -> None:
+def _option_names(reader: Reader) -> list[str] | None:
+    """The keyword options ``reader`` takes after the path; None when it takes any (or
+    has no signature to tell)."""
     try:
         params = inspect.signature(reader).parameters
     except (TypeError, ValueError):  # a builtin without a signature: let it decide
-        return
+        return None
     if any(v.kind is inspect.Parameter.VAR_KEYWORD for v in params.values()):
+        return None
+    return [n for n, v in list(params.items())[1:]
+            if v.kind in (inspect.Parameter.KEYWORD_ONLY,
+                          inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+
+
+def _check_options(p: Path, ext: str, reader: Reader, options: dict) -> None:
+    names = _option_names(reader)
+    if names is None:
         return
-    names = [n for n, v in list(params.items())[1:]
-             if v.kind in (inspect.Parameter.KEYWORD_ONLY,
-                           inspect.Parameter.POSITIONAL_OR_KEYWORD)]
     bad = sorted(set(options) - set(names))
     if bad:
         raise ValueError(
@@ -133,8 +141,23 @@ def load_frf(path: str | PathLike, **options: Any) -> tuple[FRFData, ...]:
         the supported ones), a reader that returns something else than FRFData, or a
         malformed file.
     """
-    from truthbench.measure.frfdata import FRFData
+    p = Path(path)
+    ext, reader = _reader_for(p)
+    _check_options(p, ext, reader, options)
+    return _checked(p, ext, reader, reader(p, **options))
 
+
+def _reader_for(path: str | PathLike) -> tuple[str, Reader]:
+    """The extension (lower case) of an existing data file and its registered reader.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    truthbench.errors.DataFormatError
+        A directory, or no reader registered for the extension (the message names it and
+        the supported ones).
+    """
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"{p}: no such data file")
@@ -157,8 +180,13 @@ def load_frf(path: str | PathLike, **options: Any) -> tuple[FRFData, ...]:
             f"{p}: unknown file extension {ext or '(none)'!r}; expected one of: "
             f"{supported}{later}"
         )
-    _check_options(p, ext, reader, options)
-    out = reader(p, **options)
+    return ext, reader
+
+
+def _checked(p: Path, ext: str, reader: Reader, out: Any) -> tuple[FRFData, ...]:
+    """``out`` of ``reader`` as a non-empty tuple of FRFData, else a DataFormatError."""
+    from truthbench.measure.frfdata import FRFData
+
     items = tuple(out) if isinstance(out, tuple | list) else None
     if items is None:
         got = type(out).__name__

@@ -86,6 +86,7 @@ import numpy as np
 
 from truthbench.errors import DataFormatError
 from truthbench.io.uff import (
+    _SAME_ABSCISSA_RTOL,
     DIRECTIONS,
     _assemble_grid,
     _assemble_time,
@@ -102,7 +103,8 @@ from truthbench.quantities import RESPONSE_QUANTITIES, by_uff_code, quantity
 if TYPE_CHECKING:
     from truthbench.measure.frfdata import Channel, FRFData
 
-__all__ = ["DIRECTION_CODES", "PointNumbers", "number_points", "read_uff", "write_uff"]
+__all__ = ["DIRECTION_CODES", "PointNumbers", "number_points", "read_uff", "read_uff_files",
+           "write_uff"]
 
 DIRECTION_CODES = MappingProxyType({"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6})
 """Channel direction -> UFF direction code (record 6); times ``Channel.sign``."""
@@ -558,46 +560,122 @@ def _group(sets: list[tuple[int, dict]], func_type: int) -> dict[int, list[tuple
     return groups
 
 
-def _coherence_grid(frf_file: _File, coh_file: _File, lc: int, selected, grid, freq):
-    """The coherence (n_freq, n_out, n_in) of load case ``lc`` in the FRF grid's order."""
-    p = coh_file.path
-    label = f" (coherence, load case {lc})"
-    common = _common_of(p, selected, _FUNC_COHERENCE,
-                        what=f"the coherence sets of load case {lc}")
-    coh = _assemble_grid(p, selected, common, label=label)
-    if coh.abscissa.shape != freq.shape or np.max(np.abs(coh.abscissa - freq)) > 1e-9 * max(
-            float(np.max(np.abs(freq))), 1.0):
+#: Round-off a coherence |Gxy|^2 / (Gxx Gyy) computed in double precision can carry past
+#: 0 or 1 (a few hundred eps for sums of up to 10^4 averages); values within it are clipped.
+COHERENCE_ROUNDOFF = 1e-12
+
+_CohKey = tuple[int, int, int, int, int]
+"""(response node, response dir, reference node, reference dir, load case)."""
+
+
+def _ids(d: Mapping) -> _CohKey:
+    """The ids that pair a coherence set with its FRF set."""
+    return (int(d["rsp_node"]), int(d["rsp_dir"]), int(d["ref_node"]), int(d["ref_dir"]),
+            int(d.get("load_case_id", 0)))
+
+
+def _frf_ids(f: _File) -> set[_CohKey]:
+    return {_ids(d) for _, d in f.sets58 if int(d["func_type"]) == _FUNC_FRF}
+
+
+@dataclass(frozen=True, eq=False)
+class _Coherence:
+    """One coherence set (dataset 58, function type 6) and the file it is in."""
+
+    file: _File
+    k: int
+    d: dict
+
+    @property
+    def load_case(self) -> int:
+        return int(self.d.get("load_case_id", 0))
+
+    @property
+    def key(self) -> _CohKey:
+        return _ids(self.d)
+
+    @property
+    def where(self) -> str:
+        return f"{self.file.path}: {_set_where(self.d, self.k, self.load_case)}"
+
+
+def _coherence_sets(files) -> dict[_CohKey, _Coherence]:
+    """The coherence sets of ``files`` by their ids (UFF 58 record 6 and load case).
+
+    Raises
+    ------
+    DataFormatError
+        Two sets with the same ids: one FRF pair would get two coherences.
+    """
+    pool: dict[_CohKey, _Coherence] = {}
+    for f in files:
+        for k, d in f.sets58:
+            if int(d["func_type"]) != _FUNC_COHERENCE:
+                continue
+            c = _Coherence(f, k, d)
+            other = pool.setdefault(c.key, c)
+            if other is not c:
+                raise DataFormatError(
+                    f"{c.where}: a second coherence set of this FRF pair (the first is "
+                    f"{other.file.path}: dataset {other.k}); expected one coherence set per "
+                    f"FRF pair")
+    return pool
+
+
+def _coherence_values(c: _Coherence, frf_file: _File, freq: np.ndarray) -> np.ndarray:
+    """The checked values (n_freq,) of one coherence set on the FRF lines ``freq``."""
+    x = np.asarray(c.d["x"], dtype=np.float64)
+    scale = max(float(np.max(np.abs(freq))), 1.0)
+    if x.shape != freq.shape or np.max(np.abs(x - freq)) > _SAME_ABSCISSA_RTOL * scale:
+        def grid(v):
+            step = f", step {v[1] - v[0]:g} Hz" if v.size > 1 else ""
+            return f"{v.size} lines {v[0]:g}-{v[-1]:g} Hz{step}"
+
         raise DataFormatError(
-            f"{p}: load case {lc}: the coherence sets span {coh.abscissa.size} lines "
-            f"{coh.abscissa[0]:g}-{coh.abscissa[-1]:g} Hz, the FRF sets of {frf_file.path} "
-            f"{freq.size} lines {freq[0]:g}-{freq[-1]:g} Hz; expected the same lines")
-    rk = list(zip(grid.resp_nodes.tolist(), grid.resp_dirs.tolist(), strict=True))
-    fk = list(zip(grid.ref_nodes.tolist(), grid.ref_dirs.tolist(), strict=True))
-    crk = list(zip(coh.resp_nodes.tolist(), coh.resp_dirs.tolist(), strict=True))
-    cfk = list(zip(coh.ref_nodes.tolist(), coh.ref_dirs.tolist(), strict=True))
-    extra = [f"resp {r}" for r in crk if r not in rk] + [f"ref {f}" for f in cfk if f not in fk]
-    if extra:
-        raise DataFormatError(
-            f"{p}: load case {lc}: coherence sets for (node, dir) {extra} that have no FRF "
-            f"set in {frf_file.path}; expected coherence of the FRF pairs only")
-    missing = [f"resp {r} / ref {f}" for r in rk for f in fk if r not in crk or f not in cfk]
-    if missing:
-        raise DataFormatError(
-            f"{p}: load case {lc}: the coherence sets leave out the (node, dir) pairs "
-            f"{missing[:6]}{' ...' if len(missing) > 6 else ''}; expected one coherence set "
-            f"per FRF pair")
-    values = np.asarray(coh.H)
+            f"{c.where}: the coherence set spans {grid(x)}, the FRF sets of "
+            f"{frf_file.path} {grid(freq)}; expected the same lines")
+    values = np.asarray(c.d["data"])
     if np.iscomplexobj(values):
         if np.any(values.imag != 0):
-            raise DataFormatError(f"{p}: load case {lc}: complex coherence values; expected "
-                                  f"real ones (function type 6)")
+            raise DataFormatError(f"{c.where}: complex coherence values; expected real ones "
+                                  f"(function type 6)")
         values = values.real
-    order_r = [crk.index(r) for r in rk]
-    order_f = [cfk.index(f) for f in fk]
-    return values[:, order_r][:, :, order_f]
+    values = np.asarray(values, dtype=np.float64)
+    bad = ~((values >= -COHERENCE_ROUNDOFF) & (values <= 1 + COHERENCE_ROUNDOFF))
+    if bad.any():
+        n = int(np.argmax(bad))
+        raise DataFormatError(
+            f"{c.where}: coherence {float(values[n])!r} at {freq[n]:g} Hz "
+            f"({int(bad.sum())} value(s) outside [0, 1]); expected an ordinary coherence in "
+            f"[0, 1]")
+    return np.clip(values, 0.0, 1.0)
 
 
-def _frf_group(f: _File, lc: int, selected, coherence_sets, coh_file: _File, several: bool):
+def _coherence_grid(frf_file: _File, lc: int, grid, pool: Mapping[_CohKey, _Coherence]):
+    """The coherence (n_freq, n_out, n_in) of load case ``lc`` from ``pool`` (None when
+    no FRF pair has one) and the sets it took."""
+    rk = list(zip(grid.resp_nodes.tolist(), grid.resp_dirs.tolist(), strict=True))
+    fk = list(zip(grid.ref_nodes.tolist(), grid.ref_dirs.tolist(), strict=True))
+    found = {(i, j): pool.get((*r, *f, lc)) for i, r in enumerate(rk) for j, f in enumerate(fk)}
+    used = [c for c in found.values() if c is not None]
+    if not used:
+        return None, []
+    missing = [f"resp {rk[i]} / ref {fk[j]}" for (i, j), c in found.items() if c is None]
+    if missing:
+        files = ", ".join(dict.fromkeys(str(c.file.path) for c in used))
+        raise DataFormatError(
+            f"{files}: load case {lc}: the coherence sets leave out the (node, dir) pairs "
+            f"{missing[:6]}{' ...' if len(missing) > 6 else ''} of the FRF sets of "
+            f"{frf_file.path}; expected one coherence set per FRF pair")
+    coh = np.empty(grid.H.shape)
+    for (i, j), c in found.items():
+        coh[:, i, j] = _coherence_values(c, frf_file, grid.freq_hz)
+    return coh, used
+
+
+def _frf_group(f: _File, lc: int, selected, pool: Mapping[_CohKey, _Coherence],
+               several: bool) -> FRFData:
+    """The FRFData of load case ``lc`` of ``f``, with its coherence sets from ``pool``."""
     from truthbench.measure.frfdata import Channel, FRFData
 
     p = f.path
@@ -686,9 +764,7 @@ def _frf_group(f: _File, lc: int, selected, coherence_sets, coh_file: _File, sev
             f"case); expected finite numbers")
     H = grid.H * factor[None, :, :]
     # coherence
-    coh = None
-    if coherence_sets:
-        coh = _coherence_grid(f, coh_file, lc, coherence_sets, grid, grid.freq_hz)
+    coh, used = _coherence_grid(f, lc, grid, pool)
     # channels
     labels = _labels_from_id2(selected, rows, cols, n_out, n_in)
     ours = "grid" in shared
@@ -725,8 +801,9 @@ def _frf_group(f: _File, lc: int, selected, coherence_sets, coh_file: _File, sev
              f"from {p.name}", *f.notes]
     if assumed:
         notes.append("some unit labels say nothing: those sets taken as SI")
-    if coh is not None:
-        notes.append(f"coherence from {coh_file.path.name}")
+    if used:
+        names = ", ".join(dict.fromkeys(c.file.path.name for c in used))
+        notes.append(f"coherence (function type 6) from {names}")
     missing_xyz = sorted({n for n, _ in (*rk, *fk) if n > 0 and n not in f.geometry})
     if f.geometry and missing_xyz:
         notes.append(f"points {missing_xyz} have no coordinates in the file")
@@ -764,6 +841,79 @@ def _time_frf(f: _File, selected, options) -> FRFData:
                              details=details, name=p.stem, **options)
 
 
+def _kinds(f: _File) -> set[int]:
+    return {int(d["func_type"]) for _, d in f.sets58}
+
+
+def _is_coherence_file(f: _File) -> bool:
+    """Coherence sets and neither FRF nor time sets: the coherence an acquisition system
+    exported in a file of its own."""
+    kinds = _kinds(f)
+    return _FUNC_COHERENCE in kinds and not kinds & {_FUNC_FRF, _FUNC_TIME}
+
+
+def _check_pairs(pool: Mapping[_CohKey, _Coherence], frf_files) -> None:
+    """Every coherence set of ``pool`` has the ids of an FRF set in exactly one of
+    ``frf_files``."""
+    ids = [(f, _frf_ids(f)) for f in frf_files]
+    unpaired = []
+    for key, c in pool.items():
+        hits = [f.path for f, keys in ids if key in keys]
+        if len(hits) > 1:
+            raise DataFormatError(
+                f"{c.where}: this coherence set pairs with FRF sets of both {hits[0]} and "
+                f"{hits[1]} (same nodes, directions and load case); expected one: give such "
+                f"files separately (read_uff(frf, coherence=coh))")
+        if not hits:
+            unpaired.append(c)
+    if unpaired:
+        c = min(unpaired, key=lambda c: (str(c.file.path), c.k))
+        more = f" ({len(unpaired) - 1} more such set(s))" if len(unpaired) > 1 else ""
+        raise DataFormatError(
+            f"{c.where}: this coherence set pairs with no FRF set of "
+            f"{', '.join(str(f.path) for f in frf_files) or 'the files given'}{more}; "
+            f"expected the response node and direction, reference node and direction and "
+            f"load case of an FRF set")
+
+
+def _read_parsed(f: _File, pool: Mapping[_CohKey, _Coherence], options: Mapping[str, Any]
+                 ) -> tuple[FRFData, ...]:
+    """The FRFData of a parsed file (module notes), with the coherence sets of
+    ``pool``."""
+    p = f.path
+    frf_groups = _group(f.sets58, _FUNC_FRF)
+    if not frf_groups:
+        time_sets = [(k, d) for k, d in f.sets58 if int(d["func_type"]) == _FUNC_TIME]
+        if not time_sets:
+            if _is_coherence_file(f):
+                raise DataFormatError(
+                    f"{p}: holds only coherence sets (dataset 58, function type 6); give "
+                    f"it with the file of its FRF sets (truthbench diagnose frf.uff "
+                    f"coh.uff, truthbench.io.load_measurements, or read_uff(frf, "
+                    f"coherence=...))")
+            raise DataFormatError(
+                f"{p}: the dataset-58 sets are of function type(s) {sorted(_kinds(f))}; "
+                f"expected FRFs (type 4) or time responses (type 1)")
+        return (_time_frf(f, time_sets, options),)
+    other = sorted(_kinds(f) - {_FUNC_FRF, _FUNC_COHERENCE})
+    if other:
+        f = replace(f, notes=(*f.notes, f"dataset-58 sets of function type(s) {other} left "
+                                        f"out (FRF sets read)"))
+    several = len(frf_groups) > 1
+    out = [(lc, _frf_group(f, lc, sel, pool, several)) for lc, sel in frf_groups.items()]
+    # load cases whose sets carry one ID line 1: keep their names apart
+    count: dict[str, int] = {}
+    for _, d in out:
+        count[d.name] = count.get(d.name, 0) + 1
+    return tuple(d if count[d.name] == 1 else replace(d, name=f"{d.name} load case {lc}")
+                 for lc, d in out)
+
+
+def _time_options(excitation, decay_to, force_width, n_averages, window) -> dict[str, Any]:
+    return {"excitation": excitation, "decay_to": decay_to, "force_width": force_width,
+            "n_averages": n_averages, "window": window}
+
+
 def read_uff(
     path: str | PathLike,
     *,
@@ -782,7 +932,8 @@ def read_uff(
         ASCII or binary UFF with dataset 58 FRF sets (function type 4) or, failing
         those, time sets (type 1); optionally 164 units, 2411/15 points, coherence sets.
     coherence : str or os.PathLike, optional
-        A separate UFF file with the coherence sets (function type 6).
+        A separate UFF file with the coherence sets (function type 6); they replace the
+        file's own. :func:`read_uff_files` pairs coherence files with several FRF files.
     excitation, decay_to, force_width, n_averages, window
         Time sets only: see :func:`truthbench.measure.frfs_from_time`.
 
@@ -799,35 +950,91 @@ def read_uff(
     DataFormatError
         Corrupt or truncated file, a grid with missing pairs, no reference (force)
         channel, units that disagree with dataset 164, coherence that does not fit the
-        FRFs, no FRF or time sets; the message names the file and the set.
+        FRFs (other lines, a pair left out, a set of no FRF pair, two sets of one pair,
+        values outside [0, 1]), no FRF or time sets; the message names the file and the
+        set.
     """
-    p = Path(path)
-    f = _parse_file(p)
-    frf_groups = _group(f.sets58, _FUNC_FRF)
-    if frf_groups:
-        other = sorted({int(d["func_type"]) for _, d in f.sets58} - {_FUNC_FRF,
-                                                                     _FUNC_COHERENCE})
-        if other:
-            f = replace(f, notes=(*f.notes, f"dataset-58 sets of function type(s) {other} "
-                                            f"left out (FRF sets read)"))
-        coh_file = f if coherence is None else _parse_file(Path(coherence))
-        coh_groups = _group(coh_file.sets58, _FUNC_COHERENCE)
-        stray = sorted(set(coh_groups) - set(frf_groups))
-        if stray:
-            raise DataFormatError(
-                f"{coh_file.path}: coherence sets of load case(s) {stray}, but the FRF sets "
-                f"of {p} are of load case(s) {sorted(frf_groups)}; expected coherence of "
-                f"the FRF load cases")
-        several = len(frf_groups) > 1
-        return tuple(_frf_group(f, lc, sel, coh_groups.get(lc), coh_file, several)
-                     for lc, sel in frf_groups.items())
-    time_sets = [(k, d) for k, d in f.sets58 if int(d["func_type"]) == _FUNC_TIME]
-    if not time_sets:
-        types = sorted({int(d["func_type"]) for _, d in f.sets58})
+    f = _parse_file(Path(path))
+    coh_files = [f] if coherence is None else [_parse_file(Path(coherence))]
+    if coherence is not None and _FUNC_COHERENCE not in _kinds(coh_files[0]):
         raise DataFormatError(
-            f"{p}: the dataset-58 sets are of function type(s) {types}; expected FRFs "
-            f"(type 4) or time responses (type 1)")
-    options: dict[str, Any] = {"excitation": excitation, "decay_to": decay_to,
-                               "force_width": force_width, "n_averages": n_averages,
-                               "window": window}
-    return (_time_frf(f, time_sets, options),)
+            f"{coh_files[0].path}: no coherence sets (dataset 58, function type 6): the "
+            f"sets are of function type(s) {sorted(_kinds(coh_files[0]))}; expected the "
+            f"coherence of the FRF sets of {f.path}")
+    if coherence is not None and _FUNC_FRF not in _kinds(f):
+        raise DataFormatError(f"{f.path}: holds no FRF sets (function type 4) to pair the "
+                              f"coherence of {coh_files[0].path} with")
+    pool = _coherence_sets(coh_files)
+    if _FUNC_FRF in _kinds(f):
+        _check_pairs(pool, [f])
+    return _read_parsed(f, pool, _time_options(excitation, decay_to, force_width, n_averages,
+                                               window))
+
+
+def read_uff_files(
+    paths,
+    *,
+    excitation: str = "auto",
+    decay_to: float = 0.01,
+    force_width: int | None = None,
+    n_averages: int = 8,
+    window: str = "hann",
+) -> tuple[tuple[FRFData, ...], ...]:
+    """Read several UFF files, pairing coherence files with the FRF sets of the others.
+
+    A file whose dataset-58 sets are coherence (function type 6) and neither FRFs (4)
+    nor time responses (1) is a *coherence file*, as many acquisition systems export
+    it. Each of its sets goes to the FRF set with the same response node and
+    direction, reference node and direction (record 6) and load case (record 6, field
+    4), in whichever other file that is. A file's own coherence sets pair with its own
+    FRF sets. An FRF load case without coherence keeps none.
+
+    Parameters
+    ----------
+    paths : sequence of str or os.PathLike
+        UFF files (``.uff`` / ``.unv``), FRF, time and coherence files in any order.
+    excitation, decay_to, force_width, n_averages, window
+        Time sets only: see :func:`truthbench.measure.frfs_from_time`.
+
+    Returns
+    -------
+    tuple of tuple of FRFData
+        Per path, what :func:`read_uff` gives for it; ``()`` for a coherence file.
+
+    Raises
+    ------
+    FileNotFoundError
+        If a file does not exist.
+    DataFormatError
+        What :func:`read_uff` raises, and: a coherence set that pairs with no FRF set or
+        with FRF sets of two files, two coherence sets of one FRF pair (both named), a
+        coherence set on other lines than its FRF set (both files, the set and both
+        grids), values outside [0, 1], an FRF load case whose coherence leaves out
+        pairs; only coherence files.
+    """
+    files = [_parse_file(Path(p)) for p in paths]
+    shared = _coherence_sets(f for f in files if _is_coherence_file(f))
+    frf_files = [f for f in files if _FUNC_FRF in _kinds(f)]
+    if shared and not frf_files:
+        first = next(iter(shared.values()))
+        raise DataFormatError(
+            f"{first.file.path}: holds only coherence sets (dataset 58, function type 6) "
+            f"and no other file given holds FRF sets (function type 4) to pair them with")
+    _check_pairs(shared, frf_files)
+    options = _time_options(excitation, decay_to, force_width, n_averages, window)
+    out = []
+    for f in files:
+        if _is_coherence_file(f):
+            out.append(())
+            continue
+        own = _coherence_sets([f])
+        both = sorted(own.keys() & shared.keys(), key=lambda key: own[key].k)
+        if both:
+            c, other = own[both[0]], shared[both[0]]
+            raise DataFormatError(
+                f"{c.where}: this FRF pair has a second coherence set in {other.file.path} "
+                f"(dataset {other.k}); expected one coherence set per FRF pair")
+        if _FUNC_FRF in _kinds(f):
+            _check_pairs(own, [f])
+        out.append(_read_parsed(f, {**shared, **own}, options))
+    return tuple(out)

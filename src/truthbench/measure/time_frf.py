@@ -22,6 +22,11 @@ otherwise (or as told by ``excitation=``):
 * random: H1 with a window (Hann by default) over ``n_averages`` non-overlapping
   segments, mean removed per segment; the default band is where the input
   auto-spectrum lies within 20 dB of its maximum. The ordinary coherence is kept.
+
+Either way the result carries the excitation level, ``input_rms``: the RMS of each
+input over the whole record about its baseline (impact) or its mean (random), so a
+force transducer's offset is no excitation. With the default band it is what
+amplitude-dependent effects (friction) are judged by.
 """
 
 from __future__ import annotations
@@ -85,6 +90,11 @@ def _band_from_autospectrum(f: np.ndarray, gxx: np.ndarray, db: float) -> tuple[
     level = gxx[pos].max() * 10 ** (-db / 10)
     ok = np.flatnonzero(pos & (gxx >= level))
     return float(f[ok[0]]), float(f[ok[-1]])
+
+
+def _rms(x: np.ndarray) -> tuple[float, ...]:
+    """RMS of each row of ``x`` (n_rows, n_samples) over its samples."""
+    return tuple(float(v) for v in np.sqrt(np.mean(x**2, axis=1)))
 
 
 def _channels(side: str, given, n: int, kind: str, where: str) -> tuple[Channel, ...]:
@@ -159,7 +169,9 @@ def frfs_from_time(
         ``H`` (n_freq, n_out, n_in) with ``freq_hz`` from 0 to ``fs_hz / 2``;
         ``band_hz`` from the input auto-spectrum (10 dB rule for impact, 20 dB for
         random); for impact ``window_decay_rad_s = -ln(decay_to) fs / (n - 1)`` and
-        ``n_averages = 1``; for random the coherence and ``n_averages``.
+        ``n_averages = 1``; for random the coherence and ``n_averages``; ``input_rms``
+        (n_in,) the RMS of each input over the record about its baseline (impact) or mean
+        (random), in the input's unit (N).
 
     Raises
     ------
@@ -219,7 +231,7 @@ def frfs_from_time(
         )
         return FRFData(name=name, freq_hz=est.freq_hz, H=est.H, outputs=outs, inputs=ins,
                        n_averages=1, band_hz=band, excitation="impact",
-                       window_decay_rad_s=sigma_w, notes=notes)
+                       window_decay_rad_s=sigma_w, notes=notes, input_rms=_rms(x - base))
     n_avg = check_number("n_averages", n_averages, low=1, integer=True, where=where)
     nper = n // n_avg
     est = estimate_frf(x, y, fs_hz, window=window, nperseg=nper, n_averages=n_avg,
@@ -237,4 +249,5 @@ def frfs_from_time(
     )
     return FRFData(name=name, freq_hz=est.freq_hz, H=est.H, outputs=outs, inputs=ins,
                    coherence=est.coherence, n_averages=est.n_averages, band_hz=band,
-                   excitation="random", notes=notes)
+                   excitation="random", notes=notes,
+                   input_rms=_rms(x - x.mean(axis=1, keepdims=True)))
