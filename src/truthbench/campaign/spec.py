@@ -762,6 +762,13 @@ def _check_references(spec: CampaignSpec) -> None:
             except ModelError as exc:
                 raise CampaignError(f"{src}: key '{where}.station': effect {eff.name!r}: "
                                     f"{exc}; got {eff.options['station']!r}") from None
+        if eff.name == "boundary" and eff.options["support"] != "all":
+            from truthbench.effects.structural import support_node
+
+            try:  # one suspension point: the plant must have it
+                support_node(plant, eff.options["support"])
+            except ModelError as exc:
+                raise CampaignError(f"{src}: key '{where}.support': {exc}") from None
     _check_geometry_effects(spec, plant)
     check_refinement(spec, effects)
     from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater
