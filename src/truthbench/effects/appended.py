@@ -188,8 +188,8 @@ class ActuatorResonance(Effect):
     target: ClassVar[str] = "appended"
     description: ClassVar[str] = ("the applied force is the recorded command through a "
                                   "second-order low-pass (a shaker's armature or stinger "
-                                  "resonance, a force gauge's mass): a peak at the natural "
-                                  "frequency for a damping ratio below 0.7; first order: "
+                                  "resonance): a peak near the natural frequency for a "
+                                  "damping ratio below 1/sqrt(2); first order: "
                                   "actuator_dynamics")
     params: ClassVar = (EffectParam("natural_frequency_hz", 1e3, "natural frequency, Hz",
                                     1e-3),
