@@ -143,8 +143,8 @@ def support_node(plant, support) -> int:
     """
     nodes = plant.suspension_nodes() if hasattr(plant, "suspension_nodes") else ()
     if not nodes or "suspension_stiffness_n_m" not in plant.parameters:
-        raise ModelError(f"effect 'boundary': {plant.kind} has no suspension points; "
-                         f"expected support = 'all' on a suspended plant, got {support!r}")
+        raise ModelError(f"effect 'boundary' needs a suspended plant; {plant.kind} has no "
+                         f"suspension points; got support = {support!r}")
     if (isinstance(support, bool) or not isinstance(support, int | float)
             or support != int(support) or not 0 <= support < len(nodes)):
         raise ModelError(f"effect 'boundary': option 'support' expected 'all' or the index of "

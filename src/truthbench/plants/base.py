@@ -194,11 +194,11 @@ class Plant:
                              f"({self.n_groups}) so that every group has whole elements")
         check_choice("section", self.section, SECTIONS, where=self.kind, error=ModelError)
         check_choice("material", self.material, MATERIALS, where=self.kind, error=ModelError)
-        if self.supports is not None and not self.support_kinds:
-            raise ModelError(f"{self.kind} has no 'supports' to declare (what holds it is "
-                             f"fixed by its kind); expected supports unset; got "
-                             f"{self.supports!r}")
         if self.supports is not None:
+            if not self.support_kinds:
+                raise ModelError(f"{self.kind} has no 'supports' to declare (what holds it "
+                                 f"is fixed by its kind); expected supports unset; got "
+                                 f"{self.supports!r}")
             check_choice("supports", self.supports, self.support_kinds, where=self.kind,
                          error=ModelError)
         for name in self.stations:  # user stations must lie on nodes
