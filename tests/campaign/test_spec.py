@@ -145,3 +145,50 @@ def test_lines_and_memory_estimate(small_dict):
     spec = parse_campaign(small_dict)
     need, what = memory_estimate_bytes(spec, 0, n_dofs=54)
     assert need == 8 * n * channels * 4 and "oversample 4" in what
+
+
+def test_plant_supports(quickstart_dict):
+    """``[plant] supports`` reaches the plant (campaign and model file); unset is the
+    suspended beam as before."""
+    from truthbench.campaign.model_file import parse_model
+
+    assert parse_campaign(quickstart_dict).make_plant().supports is None
+    quickstart_dict["plant"]["supports"] = "foam"
+    plant = parse_campaign(quickstart_dict).make_plant()
+    assert plant.supports == "foam" and plant.support_nodes() == plant.suspension_nodes()
+    model = {"plant": {"type": "free_free_beam", "n_elements": 10, "supports": "none"}}
+    assert parse_model(model, "m.toml").make_plant().support_nodes() == ()
+    assert "supports" not in parse_campaign(
+        {**quickstart_dict, "plant": {k: v for k, v in quickstart_dict["plant"].items()
+                                      if k != "supports"}}).to_toml_dict()["plant"]
+
+
+@pytest.mark.parametrize("plant, match", [
+    ({"supports": "sand"},
+     r"'plant.supports': expected input should be 'springs', 'foam' or 'none'; got 'sand'"),
+    ({"type": "hub_beam", "supports": "springs"},
+     r"'plant.supports': expected no supports: what holds a hub_beam is fixed by its kind "
+     r".*got 'springs'"),
+    ({"supports": "none", "suspension_x_m": [0.4, 1.4]},
+     r"'plant.supports': expected supports = 'none' \(nothing touches the beam\) without "
+     r"suspension_x_m; suspension_x_m = \[0.4, 1.4\] is given; got 'none'"),
+    ({"supports": "none"},  # the quickstart declares a suspension stiffness
+     r"'plant.parameters.suspension_stiffness_n_m': free_free_beam with supports = 'none' "
+     r"has no parameter"),
+])
+def test_bad_plant_supports(quickstart_dict, plant, match):
+    quickstart_dict["plant"].update(plant)
+    with pytest.raises(CampaignError, match=match):
+        parse_campaign(quickstart_dict, "cfg.toml")
+
+
+def test_boundary_at_a_support_the_plant_lacks(quickstart_dict):
+    quickstart_dict["truth"]["effects"] = [
+        {"name": "boundary", "support": 1, "parameters": {"stiffness_rel": 4.0}}]
+    parse_campaign(quickstart_dict, "cfg.toml")
+    quickstart_dict["truth"]["effects"][0]["support"] = 2
+    with pytest.raises(CampaignError, match=r"cfg.toml: key 'truth.effects\[0\].support': "
+                                            r"effect 'boundary': option 'support' expected "
+                                            r"'all' or the index of a suspension point, "
+                                            r"0\.\.1 .*; got 2"):
+        parse_campaign(quickstart_dict, "cfg.toml")

@@ -41,6 +41,8 @@ MODERATE = {
     "sensor_mass": {"mass_kg": 0.02}, "aerodynamic": {"damping_n_s_m2": 0.5},
     "sag": {"scale": 200.0}, "actuator_dynamics": {"bandwidth_hz": 100.0},
     "sensor_dynamics": {"bandwidth_hz": 200.0}, "time_delay": {"delay_s": 1e-3},
+    "actuator_resonance": {"natural_frequency_hz": 150.0, "damping_ratio": 0.2},
+    "sensor_lag": {"bandwidth_hz": 100.0},
     "sensor_noise": {"noise_fraction": 0.05}, "sensor_bias": {"gain_error": 0.05},
     "process_noise": {"rms": 0.5}, "closed_loop": {"gain": 50.0},
     "coulomb_friction": {"force_n": 0.5}, "cubic_stiffness": {"k3_n_m3": 1e9},

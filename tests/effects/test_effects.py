@@ -210,24 +210,42 @@ def test_time_delay_phase_is_minus_omega_tau(base):
     assert np.abs(err).max() < 1e-3
 
 
-def test_actuator_and_sensor_dynamics_multiply_the_frf(base):
-    COVERED.update({"actuator_dynamics", "sensor_dynamics"})
+def _low_pass_1(s, f_hz):
+    w = 2 * np.pi * f_hz
+    return w / (s + w)
+
+
+def _low_pass_2(s, f_hz, zeta):
+    w = 2 * np.pi * f_hz
+    return w**2 / (s**2 + 2 * zeta * w * s + w**2)
+
+
+@pytest.mark.parametrize("effects, expected", [
+    # first-order actuator, second-order sensor at its default damping ratio 0.7
+    ([{"name": "actuator_dynamics", "parameters": {"bandwidth_hz": 50.0}},
+      {"name": "sensor_dynamics", "parameters": {"bandwidth_hz": 150.0}}],
+     lambda s: _low_pass_1(s, 50.0) * _low_pass_2(s, 150.0, 0.7)),
+    # second-order actuator, first-order sensor
+    ([{"name": "actuator_resonance",
+       "parameters": {"natural_frequency_hz": 120.0, "damping_ratio": 0.2}},
+      {"name": "sensor_lag", "parameters": {"bandwidth_hz": 80.0}}],
+     lambda s: _low_pass_2(s, 120.0, 0.2) * _low_pass_1(s, 80.0)),
+], ids=["first-second", "second-first"])
+def test_actuator_and_sensor_dynamics_multiply_the_frf(base, effects, expected):
+    COVERED.update(e["name"] for e in effects)
     for t in base["tests"]:
         t.update(averages=1, window="rectangular")
     plain = _record(_spec(base))[1]
-    spec = _spec(base, [{"name": "actuator_dynamics", "parameters": {"bandwidth_hz": 50.0}},
-                        {"name": "sensor_dynamics", "parameters": {"bandwidth_hz": 150.0}}])
+    spec = _spec(base, effects)
     u, y = _record(spec)[1]
     fs = spec.tests[0].fs_hz
     e0 = estimate_frf(*plain, fs, window="rectangular", n_averages=1)
     e1 = estimate_frf(u, y, fs, window="rectangular", n_averages=1)
     band = (e0.freq_hz > 5) & (e0.freq_hz < 300)
     s = 2j * np.pi * e0.freq_hz[band]
-    wa, ws = 2 * np.pi * 50.0, 2 * np.pi * 150.0
-    expected = (wa / (s + wa)) * ws**2 / (s**2 + 1.4 * ws * s + ws**2)
     ratio = e1.H[band] / e0.H[band]
-    np.testing.assert_allclose(ratio, np.broadcast_to(expected[:, None, None], ratio.shape),
-                               rtol=1e-6)
+    np.testing.assert_allclose(ratio, np.broadcast_to(expected(s)[:, None, None],
+                                                      ratio.shape), rtol=1e-6)
 
 
 def test_sensor_noise_and_bias_realised_as_requested(base):

@@ -1,11 +1,12 @@
 """Model files for ``truthbench diagnose``: the user's article and what they distrust.
 
 A model file is a TOML file with the campaign file's ``[plant]`` table (the article:
-type, mesh, section, material, suspension, stations; parameters in SI with units in the
-keys), optionally ``[update] parameters`` (what the user trusts the model to get wrong:
-fitted first, as the baseline) and ``[diagnose]`` (candidates, band, point map, ...: see
-the README). It needs no ``[[tests]]`` or ``[[sensors]]``: the data say where they were
-measured. A campaign file is a model file too; its test tables are then not used.
+type, mesh, section, material, suspension, what supports it (``supports``), stations;
+parameters in SI with units in the keys), optionally ``[update] parameters`` (what the
+user trusts the model to get wrong: fitted first, as the baseline) and ``[diagnose]``
+(candidates, band, point map, ...: see the README). It needs no ``[[tests]]`` or
+``[[sensors]]``: the data say where they were measured. A campaign file is a model file
+too; its test tables are then not used.
 """
 
 from __future__ import annotations

@@ -150,6 +150,11 @@ class PlantSpec(_Strict):
     suspension_x_m: Annotated[list[FiniteFloat], Field(min_length=1)] | None = None
     """Suspension points of the free-free beam, metres from the first end (default the
     nodes nearest 0.224 L and 0.776 L)."""
+    supports: Literal["springs", "foam", "none"] | None = None
+    """What holds the free-free beam (:data:`truthbench.plants.base.SUPPORTS`): "springs"
+    (it touches ground only at its suspension points, through springs), "foam" (it lies
+    on soft blocks there) or "none" (nothing touches it: no suspension); unset: hung on
+    its suspension, as before the key existed."""
     node_tolerance_m: PositiveFloat = DEFAULT_NODE_TOLERANCE_M
     """Largest distance from a position in metres to the node it maps to."""
     parameters: dict[str, FiniteFloat] = Field(default_factory=dict)
@@ -180,6 +185,21 @@ class PlantSpec(_Strict):
 
         if v not in MATERIALS:
             raise PydanticCustomError("choice", f"one of {', '.join(map(repr, MATERIALS))}")
+        return v
+
+    @field_validator("supports")
+    @classmethod
+    def _supports_of_a_free_free_beam(cls, v, info):
+        if v is None:
+            return v
+        if info.data.get("type") not in (None, "free_free_beam"):
+            raise PydanticCustomError(
+                "supports", "no supports: what holds a {kind} is fixed by its kind (supports "
+                "belongs to a free_free_beam)", {"kind": info.data["type"]})
+        if v == "none" and info.data.get("suspension_x_m") is not None:
+            raise PydanticCustomError(
+                "supports", "supports = 'none' (nothing touches the beam) without "
+                "suspension_x_m; suspension_x_m = {x} is given", {"x": info.data["suspension_x_m"]})
         return v
 
     @field_validator("stations", mode="before")
@@ -229,6 +249,8 @@ class PlantSpec(_Strict):
                        stations=stations, section=self.section, material=self.material)
         if suspension is not None:
             options["suspension_fractions"] = suspension
+        if self.supports is not None:
+            options["supports"] = self.supports
         return options
 
 
@@ -767,6 +789,13 @@ def _check_references(spec: CampaignSpec) -> None:
             except ModelError as exc:
                 raise CampaignError(f"{src}: key '{where}.station': effect {eff.name!r}: "
                                     f"{exc}; got {eff.options['station']!r}") from None
+        if eff.name == "boundary" and eff.options["support"] != "all":
+            from truthbench.effects.structural import support_node
+
+            try:  # one suspension point: the plant must have it
+                support_node(plant, eff.options["support"])
+            except ModelError as exc:
+                raise CampaignError(f"{src}: key '{where}.support': {exc}") from None
     _check_geometry_effects(spec, plant)
     check_refinement(spec, effects)
     from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater

@@ -93,10 +93,12 @@ class Diagnosable:
     """How diagnosis tries an effect as missing: its fitted parameters and where.
 
     ``location`` is ``"station"`` (tried at every node of the model), ``"sensor"`` (at
-    every output channel) or None (no location). ``directions`` is ``"translation"``
-    (tried in every measured translational direction), ``"measured"`` (every measured
-    direction, rotations included), ``"bending"`` (the bending rotation of every measured
-    transverse direction: z -> ry, y -> rz) or None.
+    every output channel), ``"support"`` (with the option ``support`` = ``"all"`` and
+    the index of every suspension point of the plant) or None (no location).
+    ``directions`` is ``"translation"`` (tried in every measured translational
+    direction), ``"measured"`` (every measured direction, rotations included),
+    ``"bending"`` (the bending rotation of every measured transverse direction: z -> ry,
+    y -> rz) or None.
     ``to_values(fitted) -> effect values`` turns the fitted parameters into the effect's
     own (default: they are the effect's own).
     """

@@ -131,28 +131,76 @@ class ElementPhysics(Effect):
             setup.plant = replace(setup.plant, timoshenko=float(values["scale"]))
 
 
+def support_node(plant, support) -> int:
+    """The node of suspension point ``support`` (an index into the plant's
+    ``suspension_nodes()``, 0 first).
+
+    Raises
+    ------
+    ModelError
+        The plant has no suspension, or ``support`` is not the index of one of its
+        suspension points (named, with what was expected and what was received).
+    """
+    nodes = plant.suspension_nodes() if hasattr(plant, "suspension_nodes") else ()
+    if not nodes or "suspension_stiffness_n_m" not in plant.parameters:
+        raise ModelError(f"effect 'boundary' needs a suspended plant; {plant.kind} has no "
+                         f"suspension points; got support = {support!r}")
+    if (isinstance(support, bool) or not isinstance(support, int | float)
+            or support != int(support) or not 0 <= support < len(nodes)):
+        raise ModelError(f"effect 'boundary': option 'support' expected 'all' or the index of "
+                         f"a suspension point, 0..{len(nodes) - 1} (at nodes "
+                         f"{', '.join(map(str, nodes))}); got {support!r}")
+    return nodes[int(support)]
+
+
+def _stiffness_ratio(fitted) -> dict[str, float]:
+    """The boundary fitted on a log scale: ``stiffness_rel = exp(x) - 1``."""
+    return {"stiffness_rel": float(np.expm1(fitted["log_stiffness_ratio"]))}
+
+
 @register_effect
 class BoundaryConditions(Effect):
     name: ClassVar[str] = "boundary"
     default_scope: ClassVar[str] = "test"
-    description: ClassVar[str] = ("suspension stiffness and damping differ in every test "
-                                  "(free-free beam)")
+    description: ClassVar[str] = (
+        "suspension stiffness and damping differ in every test (free-free beam): the "
+        "vertical spring of every suspension point is (1 + stiffness_rel) times the "
+        "suspension stiffness and its dashpot gains damping_n_s_m; support = k changes "
+        "suspension point k only (0 first), support = 'all' every one")
     params: ClassVar = (EffectParam("stiffness_rel", 0.0, "relative error of the suspension "
                                     "stiffness", -0.99),
                         EffectParam("damping_n_s_m", 0.0, "added suspension damping, N s/m",
                                     0.0))
-    options: ClassVar = {}
-    diagnosis: ClassVar = Diagnosable((FitParam("stiffness_rel", "unit", 0.1, minimum=-0.99),))
-    """Diagnosed by its stiffness only: added suspension damping is a grounded dashpot at
-    the suspension points (a dashpot candidate), and a damping fitted beside the
-    stiffness crosses zero, where the model refuses it."""
+    options: ClassVar = {"support": "all"}
+    diagnosis: ClassVar = Diagnosable(
+        (FitParam("log_stiffness_ratio", "unit", 0.5, minimum=float(np.log(0.1)),
+                  maximum=float(np.log(10.0))),),
+        location="support", to_values=_stiffness_ratio)
+    """Diagnosed by its stiffness only, on a log scale: ``log_stiffness_ratio`` is
+    ``ln(k / k_nominal)``, 0 at the start, natural size 0.5 (a factor 1.65), bounds
+    ln 0.1 .. ln 10, so the screen's line searches and the fit reach 0.1 to 10 times the
+    suspension stiffness evenly. Tried at every suspension point and at all of them
+    (``location = "support"``: the option ``support`` is ``"all"`` or the index of one
+    point). Added suspension damping is a grounded dashpot at the suspension points (a
+    dashpot candidate), and a damping fitted beside the stiffness crosses zero, where the
+    model refuses it."""
 
     def contribute(self, values, options, setup):
         if "suspension_stiffness_n_m" not in setup.parameters:
             raise ModelError(f"effect 'boundary' needs a suspended plant; "
                              f"{setup.plant.kind} has no suspension")
-        setup.scale_parameter("suspension_stiffness_n_m", 1.0 + values["stiffness_rel"])
-        setup.parameters["suspension_damping_n_s_m"] += values["damping_n_s_m"]
+        support = options.get("support", "all")
+        if support == "all":
+            setup.scale_parameter("suspension_stiffness_n_m", 1.0 + values["stiffness_rel"])
+            setup.parameters["suspension_damping_n_s_m"] += values["damping_n_s_m"]
+            return
+        # one point: its vertical spring and dashpot change by what "all" gives each
+        dof = 6 * support_node(setup.plant, support) + 2
+        if values["stiffness_rel"] != 0:
+            added = values["stiffness_rel"] * setup.parameters["suspension_stiffness_n_m"]
+            setup.links.append(("spring", dof, -1, added))
+        if values["damping_n_s_m"] != 0:
+            setup.links.append(("dashpot", dof, -1, values["damping_n_s_m"]))
 
 
 @register_effect

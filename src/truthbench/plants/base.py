@@ -51,6 +51,15 @@ from truthbench.fe.beam import SECTIONS
 
 SENSOR_QUANTITIES = ("displacement", "velocity", "acceleration", "strain")
 
+#: What holds a test article, as its plant may declare it (``supports``; unset: what the
+#: plant's kind implies, the behaviour before the declaration existed):
+#:
+#: ``springs``: it touches ground only at its suspension points, through springs (bungee
+#: cords, soft springs); ``foam``: it lies on soft blocks at its suspension points (a
+#: support stiffness of the order of the declared suspension stiffness, with the blocks'
+#: damping); ``none``: nothing touches it (free flight, or a model with no supports).
+SUPPORTS = ("springs", "foam", "none")
+
 #: Material presets: the defaults of ``E_pa``, ``rho_kg_m3`` and ``nu`` (explicit
 #: parameters override them).
 #:
@@ -164,6 +173,10 @@ class Plant:
     material : str
         Material preset of :data:`MATERIALS` giving the defaults of ``E_pa``,
         ``rho_kg_m3`` and ``nu`` (default "aluminium").
+    supports : str, optional
+        What holds the article, one of the plant's :attr:`support_kinds` (a subset of
+        :data:`SUPPORTS`); None (default): what the plant's kind implies. Where the
+        article touches ground: :meth:`support_nodes`.
     """
 
     n_elements: int = 20
@@ -172,10 +185,14 @@ class Plant:
     timoshenko: bool | float = False
     section: str = DEFAULT_SECTION
     material: str = DEFAULT_MATERIAL
+    supports: str | None = None
 
     kind: ClassVar[str] = "plant"
     own_parameters: ClassVar[dict[str, ParameterInfo]] = {}
     default_stations: ClassVar[dict[str, float]] = {}
+    support_kinds: ClassVar[tuple[str, ...]] = ()
+    """The values of ``supports`` this plant accepts (none: its ground contact is fixed
+    by its kind, e.g. the hub-beam's bearing)."""
 
     def __post_init__(self):
         if int(self.n_elements) != self.n_elements or self.n_elements < 1:
@@ -188,6 +205,13 @@ class Plant:
                              f"({self.n_groups}) so that every group has whole elements")
         check_choice("section", self.section, SECTIONS, where=self.kind, error=ModelError)
         check_choice("material", self.material, MATERIALS, where=self.kind, error=ModelError)
+        if self.supports is not None:
+            if not self.support_kinds:
+                raise ModelError(f"{self.kind} has no 'supports' to declare (what holds it "
+                                 f"is fixed by its kind); expected supports unset; got "
+                                 f"{self.supports!r}")
+            check_choice("supports", self.supports, self.support_kinds, where=self.kind,
+                         error=ModelError)
         for name, fraction in dict(self.stations).items():  # on the beam, not on a node
             self._check_fraction(fraction, f"station {name!r}")
 
@@ -398,6 +422,11 @@ class Plant:
                 if len(out) == limit:
                     break
         return out
+
+    def support_nodes(self) -> tuple[int, ...]:  # pragma: no cover - abstract
+        """Nodes where the article touches ground (suspension points, blocks, a bearing),
+        in the plant's order; empty when nothing touches it (``supports = "none"``)."""
+        raise NotImplementedError
 
     # ---- stations ----------------------------------------------------------------
     def station_fractions(self) -> dict[str, float]:

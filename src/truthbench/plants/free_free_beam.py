@@ -10,6 +10,13 @@ directions. Shakers apply forces at stations; accelerometers read at stations.
 
 A campaign gives the points in metres (``[plant] suspension_x_m``); they are turned into
 node fractions on the nominal length (:meth:`~truthbench.plants.base.Plant.fraction_at_m`).
+
+What holds the beam may be declared (``supports``, :data:`~truthbench.plants.base.SUPPORTS`):
+``"springs"`` (it touches ground only at its suspension points, through springs) and
+``"foam"`` (it lies on soft blocks at its suspension points) give the same model, springs
+and dashpots at the suspension points; ``"none"`` (nothing touches it: free flight, or a
+model with no supports) gives the beam alone, with its six rigid-body modes at 0 Hz and
+no suspension parameters. Unset, the beam hangs on its suspension as before.
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ from typing import ClassVar
 
 from truthbench.errors import ModelError
 from truthbench.fe.assembly import Lumped
-from truthbench.plants.base import ParameterInfo, Plant, register_plant
+from truthbench.plants.base import SUPPORTS, ParameterInfo, Plant, register_plant
 
 
 @register_plant
@@ -32,7 +39,7 @@ class FreeFreeBeam(Plant):
     suspension_fractions : tuple of float, optional
         Suspension points as fractions of the element count, each on a node (node
         ``fraction * n_elements``). Default: the nodes nearest
-        :attr:`default_suspension_fractions`.
+        :attr:`default_suspension_fractions`. Not with ``supports = "none"``.
     """
 
     suspension_fractions: tuple[float, ...] | None = None
@@ -53,9 +60,14 @@ class FreeFreeBeam(Plant):
     }
     #: default suspension points, as fractions of the length (nearest node is used)
     default_suspension_fractions: ClassVar[tuple[float, float]] = (0.224, 0.776)
+    support_kinds: ClassVar[tuple[str, ...]] = SUPPORTS
 
     def __post_init__(self):
         super().__post_init__()
+        if self.supports == "none" and self.suspension_fractions is not None:
+            raise ModelError(f"supports = 'none' declares that nothing touches the beam; "
+                             f"expected no suspension points, got suspension_fractions = "
+                             f"{self.suspension_fractions!r}")
         if self.suspension_fractions is not None:
             fr = tuple(float(f) for f in self.suspension_fractions)
             if not fr:
@@ -63,8 +75,31 @@ class FreeFreeBeam(Plant):
             object.__setattr__(self, "suspension_fractions", fr)
             self.suspension_nodes()  # on nodes
 
+    @property
+    def parameters(self) -> dict[str, ParameterInfo]:
+        """Every parameter (:attr:`Plant.parameters`); the suspension's only while
+        something holds the beam (not with ``supports = "none"``)."""
+        table = super().parameters
+        if self.supports == "none":
+            for name in self.own_parameters:
+                del table[name]
+        return table
+
+    def _unknown_parameter(self, key: str, known) -> str:
+        if self.supports == "none" and key.split("@")[0] in self.own_parameters:
+            return (f"{self.kind} with supports = 'none' has no parameter {key!r}: nothing "
+                    f"holds the beam, so it has no suspension; expected none of "
+                    f"{', '.join(self.own_parameters)}")
+        return super()._unknown_parameter(key, known)
+
+    def support_nodes(self) -> tuple[int, ...]:
+        """Nodes where the beam touches ground: its suspension points, none with
+        ``supports = "none"``."""
+        return () if self.supports == "none" else self.suspension_nodes()
+
     def suspension_nodes(self) -> tuple[int, ...]:
-        """Node of every suspension point."""
+        """Node of every suspension point (where the springs act unless ``supports =
+        "none"``; see :meth:`support_nodes`)."""
         if self.suspension_fractions is None:
             return tuple(int(round(f * self.n_elements))
                          for f in self.default_suspension_fractions)
@@ -80,6 +115,8 @@ class FreeFreeBeam(Plant):
         return tuple(out)
 
     def _boundary(self, p, mesh):
+        if self.supports == "none":
+            return Lumped(), ()
         springs, dashpots = [], []
         for i, n in enumerate(self.suspension_nodes()):
             springs.append((6 * n + 2, p["suspension_stiffness_n_m"]))

@@ -37,6 +37,10 @@ class HubBeam(Plant):
         "tip": 1.0,
     }
 
+    def support_nodes(self) -> tuple[int, ...]:
+        """The hub (node 0): its bearing is the beam's only contact with ground."""
+        return (0,)
+
     def _boundary(self, p, mesh):
         lumped = Lumped(masses=((5, p["hub_inertia_kg_m2"]),),
                         dashpots=((5, p["hub_damping_n_m_s_rad"]),))
