@@ -49,8 +49,7 @@ _EXPORTS = {
     "estimate_frf": "truthbench.measure",
     "FRFData": "truthbench.measure.frfdata",
     "Channel": "truthbench.measure.frfdata",
-    # through the store, which registers the .h5/.hdf5 reader when it is imported
-    "load_frf": "truthbench.campaign.store",
+    "load_frf": "truthbench.io",
     "load_model": "truthbench.campaign.model_file",
     "diagnose": "truthbench.diagnose",
     "Diagnosis": "truthbench.diagnose",

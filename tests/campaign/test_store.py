@@ -11,8 +11,9 @@ from truthbench import __version__
 from truthbench.campaign.results import CampaignResult
 from truthbench.campaign.runner import run_campaign
 from truthbench.campaign.spec import parse_campaign
-from truthbench.campaign.store import read_results, write_results, write_test_record
+from truthbench.campaign.store import write_results, write_test_record
 from truthbench.errors import DataFormatError
+from truthbench.io.hdf5 import read_results
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,8 @@ def _cmd_diagnose(args) -> int:
     import json
 
     from truthbench.campaign.model_file import load_model
-    from truthbench.campaign.store import load_frf  # the .h5 reader registers with it
     from truthbench.diagnose import diagnose
+    from truthbench.io import load_frf
     from truthbench.report.format import pct, sig
 
     spec = load_model(args.model)

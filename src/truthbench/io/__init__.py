@@ -2,8 +2,11 @@
 
 - :mod:`truthbench.io.registry`: :func:`load_frf`, the one entry that reads a data file
   into a tuple of FRFData with the reader registered for its extension, and the
-  :func:`register_reader` hook (the campaign store registers ``.h5`` / ``.hdf5`` when it
-  is imported; ``import truthbench`` imports it).
+  :func:`register_reader` hook; this package registers its own readers (``.h5`` /
+  ``.hdf5``, ``.uff`` / ``.unv``, ``.lvm``) when it is imported.
+- :mod:`truthbench.io.hdf5`: truthbench's HDF5 results and single-test files (the
+  layout, writing, reading back as plain data) and :func:`read_frf`, their FRFData
+  reader.
 - :mod:`truthbench.io.uff_frf`: :func:`read_uff` (the ``.uff`` / ``.unv`` reader: FRF
   and coherence sets, units from dataset 164, points from 2411) and :func:`write_uff`
   (151, 164, 2411, 58), with the point numbering rule :func:`number_points`.
@@ -22,6 +25,7 @@ The room imports :mod:`truthbench.measure` only inside its functions, so importi
 (and ``import truthbench``) stays light.
 """
 
+from truthbench.io.hdf5 import read_frf
 from truthbench.io.lvm import (
     G_STANDARD_M_S2,
     LADISK_BEAM_IMPACT_SHA256,
@@ -52,6 +56,8 @@ from truthbench.io.uff_frf import (
 )
 from truthbench.io.units import SI, UnitSystem, parse_unit
 
+register_reader(".h5", read_frf)
+register_reader(".hdf5", read_frf)
 register_reader(".lvm", read_lvm_frf)
 register_reader(".uff", read_uff)
 register_reader(".unv", read_uff)
@@ -75,6 +81,7 @@ __all__ = [
     "load_frf",
     "number_points",
     "parse_unit",
+    "read_frf",
     "read_lvm",
     "read_lvm_frf",
     "read_uff",
