@@ -293,18 +293,18 @@ def test_methods_side_by_side_and_uncertainty_stage(small_dict, tmp_path):
 def test_one_failed_trial_does_not_lose_the_others(small_dict, tmp_path, monkeypatch):
     """A trial whose simulation raises is recorded as failed; the other trials finish,
     and all three are written."""
-    import truthbench.campaign.runner as runner
+    import truthbench.campaign.trial as trial_mod
 
     calls = {"n": 0}
-    real = runner.simulate_test
+    real = trial_mod.simulate_test
 
-    def flaky(spec, j, setup, rng):
+    def flaky(test, setup, rng):
         calls["n"] += 1
         if calls["n"] == 3:  # trial 1, test 0 (trials run in order with one worker)
             raise RuntimeError("shaker amplifier tripped")
-        return real(spec, j, setup, rng)
+        return real(test, setup, rng)
 
-    monkeypatch.setattr(runner, "simulate_test", flaky)
+    monkeypatch.setattr(trial_mod, "simulate_test", flaky)
     small_dict["update"]["method"] = "none"
     result = run_campaign(parse_campaign(small_dict), trials=3)
     errors = [t.error for t in result.trials]

@@ -1,6 +1,6 @@
 """What a campaign run produces: test records, trial results, the campaign result.
 
-Frozen dataclasses; the runner (:mod:`truthbench.campaign.runner`) makes them, the store
+Frozen dataclasses; a trial (:mod:`truthbench.campaign.trial`) makes them, the store
 (:mod:`truthbench.campaign.store`) writes them in the HDF5 format of
 :mod:`truthbench.io.hdf5`, and :meth:`CampaignResult.load` reads them back. The report
 (:mod:`truthbench.report`) only formats what they hold.
@@ -111,7 +111,7 @@ class TrialResult:
     tests : tuple of TestRecord
         In campaign order.
     truth : dict
-        The trial's hardware truth for scoring (:func:`~truthbench.campaign.runner.
+        The trial's hardware truth for scoring (:func:`~truthbench.campaign.trial.
         hardware_truth`), name -> value in the parameter's unit.
     update : UpdateResult or None
         The primary updater's result; None when the campaign does not update, or the
