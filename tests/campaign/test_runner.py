@@ -78,9 +78,11 @@ def test_changing_one_test_changes_only_that_test(small_dict):
     assert not np.array_equal(a.tests[1].y, b.tests[1].y)
 
 
-def test_trials_override_must_be_positive(small_dict):
+def test_trials_and_workers_must_be_counts(small_dict):
     with pytest.raises(ValueError, match="trials must be >= 1"):
         run_campaign(parse_campaign(small_dict), trials=0)
+    with pytest.raises(ValueError, match="n_jobs must be >= 1, or negative as in joblib"):
+        run_campaign(parse_campaign(small_dict), n_jobs=0)
 
 
 @pytest.mark.slow

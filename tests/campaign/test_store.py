@@ -189,6 +189,12 @@ def test_older_files_without_channels_load_from_the_spec(small_dict, tmp_path):
         assert rb.frf.band_hz == tuple(t.band_hz for t in result.spec.tests
                                        if t.name == ra.name)[0]
         np.testing.assert_array_equal(rb.H, ra.H)
+    # the io reader alone has no campaign to take them from: it says what is missing
+    from truthbench.io import load_frf
+
+    with pytest.raises(DataFormatError, match=r"old.h5: /trials/0000/tests/\w+: no stored "
+                                              r"channels \(a file written before"):
+        load_frf(path)
 
 
 def test_failed_trial_is_written_and_loaded_with_its_data(small_dict, tmp_path):

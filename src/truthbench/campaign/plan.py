@@ -8,7 +8,8 @@ lines), its excited band and update band, its channels (actuators and sensors, w
 FRF channels at the stations' positions on the nominal beam) and its effects with their
 random streams. The stages (:mod:`~truthbench.campaign.trial`,
 :mod:`~truthbench.campaign.truth`, :mod:`~truthbench.campaign.identification`, ...) are
-functions of ``(plan, test_plan, ...)``; none re-derives anything from the spec.
+functions of ``(plan, test_plan, ...)``: they read settings from ``plan.spec`` (the
+updaters', the identification's, the output policy) and work out nothing again.
 
 A plan is read-only by contract: its dicts are shared by every trial (a stage that
 changes parameters works on a copy), and it is what the engines send to their workers.

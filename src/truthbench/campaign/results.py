@@ -455,5 +455,3 @@ def _trial(spec, d: dict):
                                       b["output_labels"], b["input_labels"])
     return TrialResult(d["trial"], tests, d["truth"], error=d.get("error"),
                        seconds=d.get("seconds", {}), **kw)
-
-

@@ -272,7 +272,7 @@ class _Stopwatch:
         self.seconds[self._stage] += time.perf_counter() - self._t0
 
 
-def keeps_time_histories(plan, trial: int) -> bool:
+def _keeps_time_histories(plan, trial: int) -> bool:
     """Whether ``trial`` keeps its recorded time histories (``[output]``)."""
     keep = plan.spec.output.time_histories
     return keep == "all" or (keep == "first_trial" and trial == 0)
@@ -304,7 +304,7 @@ def _run_trial(plan, trial: int, seed: int) -> TrialResult:
                 record = measure_test(plan, test, u, y, truth_record(hw), identify=False)
             with watch("identify"):
                 record = identify_record(plan, test, record)
-            if not keeps_time_histories(plan, trial):
+            if not _keeps_time_histories(plan, trial):
                 record = replace(record, u=record.u[:, :0], y=record.y[:, :0])
             records.append(record)
             hardware.append(hw)

@@ -521,8 +521,8 @@ def _channels(t, side: str, labels, legacy) -> tuple:
 
     if f"channels/{side}" not in t:
         if legacy is None:
-            raise _Part(f"{t.name}: no stored channels and no test of that name in the "
-                        f"campaign")
+            raise _Part(f"{t.name}: no stored channels (a file written before they were "
+                        f"stored) and none given for this test by its campaign")
         made = tuple(legacy[side])
         if tuple(c.label for c in made) != tuple(labels):
             raise _Part(f"{t.name}: no stored channels, and the campaign's {side} "
