@@ -15,7 +15,8 @@ prints, for each tree:
 * the time split by stage (summed worker seconds per trial);
 * the peak resident memory of the main process against the number of trials (one
   worker, in-process), and the largest worker's;
-* one 8-test hub-beam trial, all stages, on one core (``run_trial``);
+* one 8-test hub-beam trial, all stages, on one core
+  (:func:`truthbench.campaign.trial.run_trial`);
 * the ratios of this tree to the base.
 
 A base tree is a checkout of the code before this work, e.g.
@@ -49,17 +50,29 @@ def _child(mode: str, campaign: str, trials: int, jobs: int) -> dict:
     if mode == "hub":
         from threadpoolctl import threadpool_limits  # noqa: F401  (run_trial limits BLAS)
 
-        from truthbench.campaign.runner import run_trial
+        try:  # the trial of a compiled plan
+            from truthbench.campaign.plan import CampaignPlan
+            from truthbench.campaign.trial import run_trial
 
-        run_trial(spec, 1, spec.campaign.seed)  # imports and caches outside the timing
+            campaign = CampaignPlan.compile(spec)
+        except ImportError:  # a base tree from before the plan: the trial of a spec
+            from truthbench.campaign.runner import run_trial
+
+            campaign = spec
+        run_trial(campaign, 1, spec.campaign.seed)  # imports and caches outside the timing
         t0 = time.perf_counter()
-        tr = run_trial(spec, 0, spec.campaign.seed)
+        tr = run_trial(campaign, 0, spec.campaign.seed)
         out.update(seconds=time.perf_counter() - t0, stages=tr.seconds, error=tr.error)
     elif mode in ("throughput", "dask", "memory"):
         t0 = time.perf_counter()
         if new:
-            from truthbench.campaign.runner import make_engine, run_to_store
+            from truthbench.campaign.runner import run_to_store
             from truthbench.campaign.store import TrialStore
+
+            try:
+                from truthbench.campaign.engines import make_engine
+            except ImportError:  # a base tree from before the engines had their module
+                from truthbench.campaign.runner import make_engine
 
             with tempfile.TemporaryDirectory(prefix="bench-") as folder:
                 with make_engine(jobs, "local" if mode == "dask" else None) as engine:

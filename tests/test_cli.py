@@ -96,7 +96,7 @@ def test_help_is_fast_and_lazy():
 
 
 def test_simulate_with_injected_effects(tmp_path, capsys):
-    from truthbench.campaign.store import read_results
+    from truthbench.io.hdf5 import read_results
 
     camp = _small_campaign(tmp_path)
     out = tmp_path / "one.h5"

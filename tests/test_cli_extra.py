@@ -28,9 +28,9 @@ def run(argv: list[str]) -> int:
 
 
 def test_import_is_light_and_help_is_fast():
-    # `import truthbench` imports the campaign store, which registers the .h5 reader of
-    # truthbench.io and imports numpy; nothing heavier (scipy, h5py, pyuff, matplotlib)
-    # may load behind --help, and truthbench's own share stays small.
+    # the commands import truthbench.io, which registers its readers (the .h5 one too)
+    # and imports numpy; nothing heavier (scipy, h5py, pyuff, matplotlib) may load behind
+    # --help, and truthbench's own share stays small.
     code = ("import sys, time; t0 = time.perf_counter(); import numpy; "
             "t1 = time.perf_counter(); import argparse; "
             "import truthbench.cli.study as s, truthbench.cli.identify as i, "

@@ -51,9 +51,8 @@ _EXPORTS = {
     "estimate_frf": "truthbench.measure",
     "FRFData": "truthbench.measure.frfdata",
     "Channel": "truthbench.measure.frfdata",
-    # through the store, which registers the .h5/.hdf5 reader when it is imported
-    "load_frf": "truthbench.campaign.store",
-    "load_measurements": "truthbench.io",  # the store imported first: see __getattr__
+    "load_frf": "truthbench.io",
+    "load_measurements": "truthbench.io",
     "load_model": "truthbench.campaign.model_file",
     "diagnose": "truthbench.diagnose",
     "Diagnosis": "truthbench.diagnose",
@@ -68,8 +67,6 @@ def __getattr__(name: str):
         module = _EXPORTS[name]
     except KeyError:
         raise AttributeError(f"module 'truthbench' has no attribute {name!r}") from None
-    if name == "load_measurements":  # reads .h5 too: the store registers that reader
-        importlib.import_module("truthbench.campaign.store")
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value

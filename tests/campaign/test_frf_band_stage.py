@@ -24,16 +24,16 @@ def _records(n_tests, seed=0):
         recs.append(TestRecord(f"t{j}", frf, np.zeros((1, 0)), np.zeros((1, 0)), 200.0, {}))
     other = FRFData("other", f, G, out_ch, (Channel("c.z", "force", "z"),))
     recs.insert(1, TestRecord("other", other, np.zeros((1, 0)), np.zeros((1, 0)), 200.0, {}))
-    spec = SimpleNamespace(tests=[SimpleNamespace(name=r.name, band_hz=(10.0, 90.0))
+    plan = SimpleNamespace(tests=[SimpleNamespace(name=r.name, band_hz=(10.0, 90.0))
                                   for r in recs],
-                           uncertainty=SimpleNamespace(k_sigma=3.0))
-    return spec, recs, G
+                           spec=SimpleNamespace(uncertainty=SimpleNamespace(k_sigma=3.0)))
+    return plan, recs, G
 
 
 def test_band_over_comparable_tests_scores_the_models():
-    spec, recs, G = _records(6)
+    plan, recs, G = _records(6)
     models = [1.5 * G[1:] if r.name != "other" else G[1:] for r in recs]
-    fb = frf_band(spec, recs, models, [G[1:]] * len(recs))
+    fb = frf_band(plan, recs, models, [G[1:]] * len(recs))
     assert fb.tests == ("t0", "t1", "t2", "t3", "t4", "t5")  # not "other" (another input)
     f = fb.band.freq_hz
     assert f[0] == 10.0 and f[-1] == 90.0 and fb.line_mask.sum() == 81  # excited band only
@@ -53,20 +53,20 @@ def test_band_over_comparable_tests_scores_the_models():
 
 
 def test_fewer_than_three_comparable_tests_give_no_band():
-    spec, recs, _ = _records(2)
-    assert frf_band(spec, recs) is None
+    plan, recs, _ = _records(2)
+    assert frf_band(plan, recs) is None
     trial = TrialResult(0, tuple(recs), {}, seconds={"bound": 1.0})
-    assert with_frf_band(spec, trial) is trial
+    assert with_frf_band(plan, trial) is trial
 
 
 def test_stage_adds_its_time_and_skips_failed_trials():
-    spec, recs, _ = _records(3)
+    plan, recs, _ = _records(3)
     trial = TrialResult(0, tuple(recs), {}, seconds={"bound": 1.0})
-    out = with_frf_band(spec, trial)
+    out = with_frf_band(plan, trial)
     assert out.frf_band.tests == ("t0", "t1", "t2") and out.frf_band.inside == {}
     assert out.seconds["bound"] > 1.0 and trial.seconds["bound"] == 1.0  # input untouched
     failed = TrialResult(0, tuple(recs), {}, error="RuntimeError: x")
-    assert with_frf_band(spec, failed) is failed
+    assert with_frf_band(plan, failed) is failed
 
 
 def test_runner_computes_the_band_in_every_trial(small_dict):

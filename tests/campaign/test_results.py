@@ -7,9 +7,10 @@ import matplotlib
 import numpy as np
 import pytest
 
-from truthbench.campaign.results import CampaignResult, TestRecord, TrialResult, frf_unit
+from truthbench.campaign.results import CampaignResult, TestRecord, TrialResult
 from truthbench.campaign.spec import parse_campaign
 from truthbench.campaign.uncertainty_stage import UncertaintyStage
+from truthbench.io.hdf5 import frf_unit
 from truthbench.measure.frfdata import Channel, FRFData
 from truthbench.update.finite_difference import UpdateResult
 

@@ -78,9 +78,11 @@ def test_changing_one_test_changes_only_that_test(small_dict):
     assert not np.array_equal(a.tests[1].y, b.tests[1].y)
 
 
-def test_trials_override_must_be_positive(small_dict):
+def test_trials_and_workers_must_be_counts(small_dict):
     with pytest.raises(ValueError, match="trials must be >= 1"):
         run_campaign(parse_campaign(small_dict), trials=0)
+    with pytest.raises(ValueError, match="n_jobs must be >= 1, or negative as in joblib"):
+        run_campaign(parse_campaign(small_dict), n_jobs=0)
 
 
 @pytest.mark.slow
@@ -91,17 +93,19 @@ def test_time_path_agrees_with_periodic_steady_state(small_dict):
     relative size about 2 (f / fs_fine)^2 each scaled by |G(image)| / |G(f)|; the bound
     allows that ratio up to 2.5 (measured: 0.53 % at 400 Hz, the bound is 1.2 %). The
     periodic path itself equals the model FRF to 1e-14."""
-    from truthbench.campaign.runner import excitation_rng, simulate_test
+    from truthbench.campaign.plan import CampaignPlan
+    from truthbench.campaign.trial import excitation_rng, simulate_test
     from truthbench.campaign.truth import build_hardware
 
     for t in small_dict["tests"]:
         t.update(oversample=8, record_s=8.0, noise_fraction=0.0)
     spec = parse_campaign(small_dict)
-    setup = build_hardware(spec, 0, 0, 5)
-    u_p, y_p = simulate_test(spec, 0, setup, excitation_rng(5, 0, 0))
+    plan = CampaignPlan.compile(spec)
+    setup = build_hardware(plan, plan.tests[0], 0, 5)
+    u_p, y_p = simulate_test(plan.tests[0], setup, excitation_rng(5, 0, 0))
     small_dict["tests"][0]["simulation"] = "time"
-    spec_t = parse_campaign(small_dict)
-    u_t, y_t = simulate_test(spec_t, 0, setup, excitation_rng(5, 0, 0))
+    time_path = CampaignPlan.compile(parse_campaign(small_dict)).tests[0]
+    u_t, y_t = simulate_test(time_path, setup, excitation_rng(5, 0, 0))
     # the two paths draw the force at different rates, so compare FRFs, not samples
     from truthbench.measure import estimate_frf
 
@@ -135,6 +139,7 @@ def test_identified_shapes_match_the_truth_with_suspension_modes_in_band(quickst
     with the truth shape at the sensors, although the band also holds the 4 Hz
     suspension modes (whose receptance once dominated the residue fit, MAC 0.84)."""
     from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
+    from truthbench.campaign.plan import CampaignPlan
     from truthbench.campaign.runner import simulate_one
     from truthbench.campaign.truth import build_hardware
     from truthbench.identify import mac
@@ -143,8 +148,9 @@ def test_identified_shapes_match_the_truth_with_suspension_modes_in_band(quickst
         t["noise_fraction"] = 0.0
     spec = parse_campaign(quickstart_dict)
     rec = simulate_one(spec, 0, 0)
-    sensors = displacement_sensors(spec.test_sensors(0))
-    setup = build_hardware(spec, 0, 0, spec.campaign.seed)
+    plan = CampaignPlan.compile(spec)
+    sensors = displacement_sensors(plan.tests[0].sensors)
+    setup = build_hardware(plan, plan.tests[0], 0, spec.campaign.seed)
     truth = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors, setup.additions),
                              sensors, (10.0, 400.0), 60)
     assert len(truth.freq_hz) == 3

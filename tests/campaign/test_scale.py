@@ -14,7 +14,8 @@ import h5py
 import numpy as np
 import pytest
 
-from truthbench.campaign.runner import make_engine, run_to_store
+from truthbench.campaign.engines import make_engine
+from truthbench.campaign.runner import run_to_store
 from truthbench.campaign.spec import parse_campaign
 from truthbench.campaign.store import StoreError, TrialStore
 from truthbench.cli import main
@@ -288,7 +289,7 @@ def test_resume_checks_the_stored_run(small_spec, small_file, tmp_path, capsys):
 
 
 def test_jobs_are_capped_at_the_cores(small_file, tmp_path, capsys):
-    from truthbench.campaign.runner import available_cores
+    from truthbench.campaign.engines import available_cores
 
     assert main(["run", str(small_file), "--out", str(tmp_path / "r"), "--trials", "1",
                  "--jobs", str(available_cores() + 62)]) == 0
@@ -304,13 +305,14 @@ def test_sizes_that_cannot_fit_are_refused_before_any_work(small_file, tmp_path,
 
 
 def test_report_of_a_partial_store_says_how_many_trials(small_spec, tmp_path, capsys):
-    from truthbench.campaign.runner import trial_job
+    from truthbench.campaign.engines import trial_job
+    from truthbench.campaign.plan import CampaignPlan
 
     out = tmp_path / "run"
     store = TrialStore(out)
     store.create(small_spec, small_spec.campaign.seed, 5, "x")
     for t in (0, 2):
-        _, image, _ = trial_job(small_spec, t, small_spec.campaign.seed)
+        _, image, _ = trial_job(CampaignPlan.compile(small_spec), t, small_spec.campaign.seed)
         store.write(t, image)
     (store.dir / "000003.h5.part").write_bytes(b"half a trial")
     assert main(["report", str(out)]) == 0

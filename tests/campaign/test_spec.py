@@ -1,5 +1,6 @@
 """Campaign validation: every bad input gives an error naming file, key, expected and got."""
 
+import numpy as np
 import pytest
 
 from truthbench.campaign.spec import load_campaign, parse_campaign
@@ -129,21 +130,23 @@ def test_limits_are_inclusive(small_dict):
 
 
 def test_lines_and_memory_estimate(small_dict):
-    from truthbench.campaign.spec import frequency_lines, memory_estimate_bytes
+    from truthbench.campaign.plan import CampaignPlan
+    from truthbench.campaign.resources import simulation_bytes
 
     spec = parse_campaign(small_dict)
-    t = spec.tests[0]  # 4 s at 1024 Hz, 4 averages: 1024-sample segments
-    assert frequency_lines(t) == (1.0, 513)
+    t = CampaignPlan.compile(spec).tests[0]  # 4 s at 1024 Hz, 4 averages: 1024-sample segments
+    assert (t.samples, t.segment) == (4096, 1024)
+    np.testing.assert_array_equal(t.freq_hz, np.arange(513) * 1.0)
     n = 4096
     channels = 1 + len(spec.test_sensors(0))
     # periodic path: the larger of the records and the modal response at every line
-    need, what = memory_estimate_bytes(spec, 0, n_dofs=54)
+    need, what = simulation_bytes(t, n_dofs=54)
     assert need == max(8 * n * channels, 16 * (n // 2 + 1) * 54)
     assert "DOFs" in what
     small_dict["tests"][0]["simulation"] = "time"
     small_dict["tests"][0]["oversample"] = 4
-    spec = parse_campaign(small_dict)
-    need, what = memory_estimate_bytes(spec, 0, n_dofs=54)
+    t = CampaignPlan.compile(parse_campaign(small_dict)).tests[0]
+    need, what = simulation_bytes(t, n_dofs=54)
     assert need == 8 * n * channels * 4 and "oversample 4" in what
 
 

@@ -11,8 +11,9 @@ from truthbench import __version__
 from truthbench.campaign.results import CampaignResult
 from truthbench.campaign.runner import run_campaign
 from truthbench.campaign.spec import parse_campaign
-from truthbench.campaign.store import read_results, write_results, write_test_record
+from truthbench.campaign.store import write_results, write_test_record
 from truthbench.errors import DataFormatError
+from truthbench.io.hdf5 import read_results
 
 
 @pytest.fixture(scope="module")
@@ -188,6 +189,12 @@ def test_older_files_without_channels_load_from_the_spec(small_dict, tmp_path):
         assert rb.frf.band_hz == tuple(t.band_hz for t in result.spec.tests
                                        if t.name == ra.name)[0]
         np.testing.assert_array_equal(rb.H, ra.H)
+    # the io reader alone has no campaign to take them from: it says what is missing
+    from truthbench.io import load_frf
+
+    with pytest.raises(DataFormatError, match=r"old.h5: /trials/0000/tests/\w+: no stored "
+                                              r"channels \(a file written before"):
+        load_frf(path)
 
 
 def test_failed_trial_is_written_and_loaded_with_its_data(small_dict, tmp_path):
@@ -292,18 +299,18 @@ def test_methods_side_by_side_and_uncertainty_stage(small_dict, tmp_path):
 def test_one_failed_trial_does_not_lose_the_others(small_dict, tmp_path, monkeypatch):
     """A trial whose simulation raises is recorded as failed; the other trials finish,
     and all three are written."""
-    import truthbench.campaign.runner as runner
+    import truthbench.campaign.trial as trial_mod
 
     calls = {"n": 0}
-    real = runner.simulate_test
+    real = trial_mod.simulate_test
 
-    def flaky(spec, j, setup, rng):
+    def flaky(test, setup, rng):
         calls["n"] += 1
         if calls["n"] == 3:  # trial 1, test 0 (trials run in order with one worker)
             raise RuntimeError("shaker amplifier tripped")
-        return real(spec, j, setup, rng)
+        return real(test, setup, rng)
 
-    monkeypatch.setattr(runner, "simulate_test", flaky)
+    monkeypatch.setattr(trial_mod, "simulate_test", flaky)
     small_dict["update"]["method"] = "none"
     result = run_campaign(parse_campaign(small_dict), trials=3)
     errors = [t.error for t in result.trials]

@@ -108,8 +108,8 @@ def pyuff_data(tmp_path_factory):
 
 @pytest.mark.slow
 def test_uff_written_by_pyuff_is_read_mapped_and_diagnosed(pyuff_data, tmp_path):
-    from truthbench.campaign.store import load_frf
     from truthbench.cli import main
+    from truthbench.io import load_frf
 
     path, spec = pyuff_data
     data = load_frf(path)
@@ -175,7 +175,7 @@ def test_cli_bad_data_writes_nothing(tmp_path, capsys):
                  str(ROOT / "campaigns" / "quickstart.toml"), "--out", str(out)])
     assert code == 2 and not out.exists()
     assert "missing.uff" in capsys.readouterr().err
-    from truthbench.campaign.store import load_frf
+    from truthbench.io import load_frf
 
     with pytest.raises(FileNotFoundError, match="missing.uff"):
         load_frf(tmp_path / "missing.uff")

@@ -19,6 +19,7 @@ from types import MappingProxyType
 import numpy as np
 import pytest
 
+from truthbench.campaign.plan import CampaignPlan
 from truthbench.campaign.spec import parse_campaign
 from truthbench.campaign.truth import build_hardware
 from truthbench.effects import EFFECTS, SCOPES, EffectSpec, parse_effect, realise
@@ -55,6 +56,12 @@ MODERATE = {
 RECORD_ONLY = {"sensor_noise", "process_noise", "coulomb_friction", "cubic_stiffness",
                "dead_band", "amplitude_damping"}
 """Effects invisible in the (linear, noise-free) FRF: checked on recorded outputs."""
+
+
+def _hardware(spec, trial, j, seed, extra_effects=()):
+    """The truth of test ``j`` of trial ``trial`` of ``spec`` (compiled to its plan)."""
+    plan = CampaignPlan.compile(spec)
+    return build_hardware(plan, plan.tests[j], trial, seed, extra_effects)
 
 
 def _spec(name, **options) -> EffectSpec:
@@ -151,7 +158,7 @@ def test_scopes_draw_when_they_should(name, scope):
     first = EFFECTS[name].params[0].name
 
     def value(trial, j):
-        return build_hardware(spec, trial, j, 7).effects[name][first]
+        return _hardware(spec, trial, j, 7).effects[name][first]
 
     a, b, c = (value(0, j) for j in range(3))
     if scope == "hardware":

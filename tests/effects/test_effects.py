@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from truthbench.campaign.runner import excitation_rng, simulate_test
+from truthbench.campaign.plan import CampaignPlan
 from truthbench.campaign.spec import parse_campaign
+from truthbench.campaign.trial import excitation_rng, simulate_test
 from truthbench.campaign.truth import build_hardware
 from truthbench.effects import EFFECTS, effect_from_inject, parse_effect
 from truthbench.errors import CampaignError
@@ -15,6 +16,12 @@ from truthbench.simulate import noise_to_signal_ratio
 COVERED = set()  # effects exercised below; the last test checks every effect is
 
 
+def _hardware(spec, trial, j, seed, extra_effects=()):
+    """The truth of test ``j`` of trial ``trial`` of ``spec`` (compiled to its plan)."""
+    plan = CampaignPlan.compile(spec)
+    return build_hardware(plan, plan.tests[j], trial, seed, extra_effects)
+
+
 def _spec(base, effects=(), test_effects=None):
     base["truth"]["effects"] = list(effects)
     if test_effects is not None:
@@ -23,7 +30,7 @@ def _spec(base, effects=(), test_effects=None):
 
 
 def _structure(spec, j=0, trial=0):
-    setup = build_hardware(spec, trial, j, spec.campaign.seed)
+    setup = _hardware(spec, trial, j, spec.campaign.seed)
     model = setup.plant.build(setup.parameters, [], [], setup.additions)
     return setup, model
 
@@ -105,8 +112,8 @@ def test_boundary_draws_differ_per_test(base):
     COVERED.add("boundary")
     spec = _spec(base, [{"name": "boundary", "parameters": {
         "stiffness_rel": {"mean": 0.0, "std": 0.2}}}])
-    k0 = build_hardware(spec, 0, 0, 1).parameters["suspension_stiffness_n_m"]
-    k1 = build_hardware(spec, 0, 1, 1).parameters["suspension_stiffness_n_m"]
+    k0 = _hardware(spec, 0, 0, 1).parameters["suspension_stiffness_n_m"]
+    k1 = _hardware(spec, 0, 1, 1).parameters["suspension_stiffness_n_m"]
     assert k0 != k1  # scope "test" by default
 
 
@@ -186,8 +193,9 @@ def test_sag_couples_axial_and_vertical_and_grows(base):
 
 
 def _record(spec, j=0, seed=7):
-    setup = build_hardware(spec, 0, j, seed)
-    return setup, simulate_test(spec, j, setup, excitation_rng(seed, 0, j))
+    setup = _hardware(spec, 0, j, seed)
+    return setup, simulate_test(CampaignPlan.compile(spec).tests[j], setup,
+                                excitation_rng(seed, 0, j))
 
 
 def test_time_delay_phase_is_minus_omega_tau(base):
@@ -287,7 +295,7 @@ def test_scopes(base):
     values = {}
     for scope in ("hardware", "reassembly", "test", "drift"):
         spec = _spec(base, [eff(scope)])
-        values[scope] = [build_hardware(spec, 0, j, 3).parameters["E_pa"] for j in range(3)]
+        values[scope] = [_hardware(spec, 0, j, 3).parameters["E_pa"] for j in range(3)]
     h, r, t, d = (values[k] for k in ("hardware", "reassembly", "test", "drift"))
     assert h[0] == h[1] == h[2]
     assert r[0] == r[1] != r[2]  # tests 0 and 1 share assembly 0
@@ -297,13 +305,13 @@ def test_scopes(base):
     assert abs(d[1] - d[0]) < abs(d[2] - d[0])
     # a different trial is different hardware
     spec = _spec(base, [eff("hardware")])
-    assert build_hardware(spec, 1, 0, 3).parameters["E_pa"] != h[0]
+    assert _hardware(spec, 1, 0, 3).parameters["E_pa"] != h[0]
 
 
 def test_inject_adds_an_undeclared_effect(base):
     spec = _spec(base)
     extra = effect_from_inject("joint:station=mid,stiffness_loss=0.2,damping_n_m_s_rad=1.5")
-    setup = build_hardware(spec, 0, 0, 3, extra_effects=[extra])
+    setup = _hardware(spec, 0, 0, 3, extra_effects=[extra])
     assert setup.effects["joint"]["stiffness_loss"] == 0.2
     assert setup.effects["joint"]["station"] == "mid"
 
@@ -442,14 +450,14 @@ def test_channel_gain_scales_one_output_row_of_the_frf(base):
     the sensor's label; a label the test lacks leaves it alone."""
     COVERED.add("channel_gain")
     f = np.linspace(5.0, 300.0, 40)
-    ref = build_hardware(_spec(base), 0, 0, 1).frf(f)
+    ref = _hardware(_spec(base), 0, 0, 1).frf(f)
     for which in (1, "mid.z.acc"):
         eff = [{"name": "channel_gain", "sensor": which, "parameters": {"gain_error": 0.07}}]
-        H = build_hardware(_spec(base, eff), 0, 0, 1).frf(f)
+        H = _hardware(_spec(base, eff), 0, 0, 1).frf(f)
         np.testing.assert_array_equal(H[:, [0, 2]], ref[:, [0, 2]])
         np.testing.assert_allclose(H[:, 1], 1.07 * ref[:, 1], rtol=1e-15)
     eff = [{"name": "channel_gain", "sensor": "tip.z.acc", "parameters": {"gain_error": 0.07}}]
-    np.testing.assert_array_equal(build_hardware(_spec(base, eff), 0, 0, 1).frf(f), ref)
+    np.testing.assert_array_equal(_hardware(_spec(base, eff), 0, 0, 1).frf(f), ref)
 
 
 def test_every_registered_effect_is_tested():

@@ -339,8 +339,8 @@ def write_results_h5(path, outputs, H, f, band=(5.0, 100.0), single_test_of_tria
     'truthbench simulate') holding FRFs ``H`` of one test, written by the store itself.
     Output labels are ``station.direction.qty`` on a hand-made plant with stations a, b
     and the hub-less root."""
+    from truthbench.campaign.plan import CampaignPlan
     from truthbench.campaign.results import CampaignResult, TestRecord, TrialResult
-    from truthbench.campaign.runner import channels
     from truthbench.campaign.spec import parse_campaign
     from truthbench.campaign.store import write_results, write_test_record
     from truthbench.measure.frfdata import FRFData
@@ -356,7 +356,8 @@ def write_results_h5(path, outputs, H, f, band=(5.0, 100.0), single_test_of_tria
         "tests": [{"name": "t1", "band_hz": list(band), "fs_hz": 256.0, "record_s": 8.0,
                    "averages": 1, "actuators": [{"station": "a", "direction": "z"}]}],
         "update": {"method": "none"}, "identify": {"enabled": False}})
-    outs, ins = channels(spec, *spec.test_io(0))
+    test = CampaignPlan.compile(spec).tests[0]
+    outs, ins = test.outputs, test.inputs
     frf = FRFData("t1", f, H, outs, ins, band_hz=band)
     empty = np.zeros((0, 0))
     record = TestRecord("t1", frf, empty, empty, 256.0, {})

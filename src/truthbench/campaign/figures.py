@@ -13,7 +13,7 @@ import re
 
 import numpy as np
 
-from truthbench.campaign.results import frf_unit
+from truthbench.io.hdf5 import frf_unit
 
 _MARKERS = "os^vD<>ph*"
 

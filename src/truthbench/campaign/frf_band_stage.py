@@ -10,8 +10,8 @@ group's first test are scored against the ``k``-sigma ellipse (``[uncertainty]
 k_sigma``): the fraction of lines and input-output pairs inside it.
 
 The stage runs after the rest of the trial (:func:`with_frf_band`); its result is
-stored with the trial (``trials/<k>/frf_band`` in :mod:`truthbench.campaign.store`) so
-the report reads it and reruns nothing.
+stored with the trial (``trials/<k>/frf_band`` in :mod:`truthbench.io.hdf5`) so the
+report reads it and reruns nothing.
 """
 
 from __future__ import annotations
@@ -96,13 +96,13 @@ class FrfBandStage:
         return df
 
 
-def frf_band(spec, records, H_initial=(), H_updated=(), *,
+def frf_band(plan, records, H_initial=(), H_updated=(), *,
              k_sigma: float | None = None) -> FrfBandStage | None:
     """The FRF band of one trial's tests.
 
     Parameters
     ----------
-    spec : CampaignSpec
+    plan : CampaignPlan
     records : sequence of TestRecord
         The trial's tests.
     H_initial, H_updated : sequence of ndarray, optional
@@ -118,7 +118,7 @@ def frf_band(spec, records, H_initial=(), H_updated=(), *,
     """
     from truthbench.uncertainty import frf_uncertainty
 
-    k = spec.uncertainty.k_sigma if k_sigma is None else float(k_sigma)
+    k = plan.spec.uncertainty.k_sigma if k_sigma is None else float(k_sigma)
     groups: dict = {}
     for j, rec in enumerate(records):
         key = (rec.input_labels, rec.output_labels, rec.freq_hz.tobytes())
@@ -128,7 +128,7 @@ def frf_band(spec, records, H_initial=(), H_updated=(), *,
     (inputs, outputs, _), members = max(groups.items(), key=lambda kv: len(kv[1]))
     if len(members) < MIN_TESTS:
         return None
-    bands = {t.name: tuple(t.band_hz) for t in spec.tests}
+    bands = {t.name: t.band_hz for t in plan.tests}
     f = records[members[0]].freq_hz
     lo = max(bands[records[j].name][0] for j in members)
     hi = min(bands[records[j].name][1] for j in members)
@@ -146,7 +146,7 @@ def frf_band(spec, records, H_initial=(), H_updated=(), *,
                         outputs, inputs)
 
 
-def with_frf_band(spec, trial):
+def with_frf_band(plan, trial):
     """``trial`` (:class:`~truthbench.campaign.results.TrialResult`) with its FRF band
     set (:func:`frf_band`) and the seconds it took added to the ``"bound"`` stage.
 
@@ -155,7 +155,7 @@ def with_frf_band(spec, trial):
     if trial.error:
         return trial
     t0 = time.perf_counter()
-    band = frf_band(spec, trial.tests, trial.H_initial, trial.H_updated)
+    band = frf_band(plan, trial.tests, trial.H_initial, trial.H_updated)
     if band is None:
         return trial
     seconds = dict(trial.seconds)

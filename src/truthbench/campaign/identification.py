@@ -20,8 +20,8 @@ from dataclasses import replace
 import numpy as np
 
 
-def acceleration_frf(spec, j: int, record):
-    """FRFs of test ``j`` as acceleration-equivalent, 0 Hz dropped.
+def acceleration_frf(record):
+    """The FRFs of ``record`` as acceleration-equivalent, 0 Hz dropped.
 
     Returns
     -------
@@ -33,13 +33,15 @@ def acceleration_frf(spec, j: int, record):
     return frf.lines(frf.freq_hz > 0).as_quantity("acceleration")
 
 
-def identify_test(spec, j: int, record, *, max_order: int = 40):
-    """Identified modes of test ``j`` (:class:`~truthbench.identify.ModalParameters`),
-    shapes over the test's sensors (displacement-equivalent units)."""
+def identify_test(test, record, *, max_order: int = 40):
+    """Identified modes of ``record``, the data of ``test`` (a
+    :class:`~truthbench.campaign.plan.TestPlan`), over its excited band
+    (:class:`~truthbench.identify.ModalParameters`, shapes over the test's sensors in
+    displacement-equivalent units)."""
     from truthbench.identify import identify_frfs
 
-    data = acceleration_frf(spec, j, record)
-    lo, hi = spec.tests[j].band_hz
+    data = acceleration_frf(record)
+    lo, hi = test.band_hz
     lo = max(lo, data.freq_hz[0])
     good = np.all(np.isfinite(data.H), axis=(1, 2))
     data = replace(data.lines(good), band_hz=(lo, hi))

@@ -4,7 +4,7 @@ The truth is the hardware of the trial's first test (its plant, mesh, element ph
 parameters and structural additions); the model is the campaign's plant at given
 parameters. Both are solved, their shapes read at the campaign's sensors as
 displacements, paired by MAC and frequency (:func:`truthbench.identify.pair_modes`),
-and compared inside the update band.
+and compared inside the analysis band (the update band, else the tests' span).
 """
 
 from __future__ import annotations
@@ -39,15 +39,11 @@ def displacement_sensors(sensors) -> list[Sensor]:
                    else "displacement") for s in sensors]
 
 
-def analysis_band(spec) -> tuple[float, float]:
-    """The update band, or the span of the tests' excited bands."""
-    return tuple(spec.update.band_hz or (min(t.band_hz[0] for t in spec.tests),
-                                         max(t.band_hz[1] for t in spec.tests)))
-
-
-def modal_accuracy(spec, setup, params: dict, *, n_modes: int = 30) -> dict:
-    """Frequency, damping and MAC errors of the model at ``params`` against the truth
-    ``setup`` (:class:`~truthbench.effects.Hardware`), over the update band.
+def modal_accuracy(plan, setup, params: dict, *, n_modes: int = 30) -> dict:
+    """Frequency, damping and MAC errors of the campaign's model (``plan``, a
+    :class:`~truthbench.campaign.plan.CampaignPlan`) at ``params`` against the truth
+    ``setup`` (:class:`~truthbench.effects.Hardware`), over the analysis band (the update
+    band, else the tests' span).
 
     Returns
     -------
@@ -57,10 +53,10 @@ def modal_accuracy(spec, setup, params: dict, *, n_modes: int = 30) -> dict:
     """
     from truthbench.identify import pair_modes
 
-    sensors = displacement_sensors(spec.sensors)
-    band = analysis_band(spec)
+    sensors = displacement_sensors(plan.spec.sensors)
+    band = plan.analysis_band_hz
     truth = setup.plant.build(setup.parameters, [], sensors, setup.additions)
-    model = spec.make_plant().build(params, [], sensors)
+    model = plan.plant.build(params, [], sensors)
     mt = modes_at_sensors(truth, sensors, band, n_modes)
     mm = modes_at_sensors(model, sensors, band, n_modes)
     pairing = pair_modes(mt, mm, mac_min=0.6)

@@ -22,7 +22,7 @@ def rank_campaign_sensors(spec, count: int):
     -------
     by_sensitivity, by_gramian : SensorRanking
     """
-    from truthbench.campaign.metrics import analysis_band
+    from truthbench.campaign.plan import CampaignPlan
     from truthbench.placement import (
         modal_candidate_system,
         rank_sensors_by_gramian,
@@ -33,11 +33,11 @@ def rank_campaign_sensors(spec, count: int):
     if not spec.update.parameters:
         raise ValueError(f"{spec.source}: key 'update.parameters': sensor placement ranks "
                          f"DOFs by the shape change these parameters cause; got none")
-    plant = spec.make_plant()
-    theta = spec.nominal_parameters()
+    plan = CampaignPlan.compile(spec)
+    plant, theta = plan.plant, plan.nominal
     model = plant.build(theta)
     modes = model.modes()
-    lo, hi = analysis_band(spec)
+    lo, hi = plan.analysis_band_hz
     target = np.flatnonzero((modes.freq_hz >= lo) & (modes.freq_hz <= hi) & ~modes.rigid)
     dirs = sorted({s.direction for s in spec.sensors if s.direction in ("x", "y", "z")})
     cand = [i for i, lab in enumerate(model.dof_labels) if lab.split(".")[1] in dirs]

@@ -1,8 +1,9 @@
 """What a campaign run produces: test records, trial results, the campaign result.
 
-Frozen dataclasses; the runner (:mod:`truthbench.campaign.runner`) makes them, the
-store (:mod:`truthbench.campaign.store`) writes them and :meth:`CampaignResult.load`
-reads them back. The report (:mod:`truthbench.report`) only formats what they hold.
+Frozen dataclasses; a trial (:mod:`truthbench.campaign.trial`) makes them, the store
+(:mod:`truthbench.campaign.store`) writes them in the HDF5 format of
+:mod:`truthbench.io.hdf5`, and :meth:`CampaignResult.load` reads them back. The report
+(:mod:`truthbench.report`) only formats what they hold.
 
 Looking at a result
 -------------------
@@ -19,6 +20,7 @@ Looking at a result
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -26,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from truthbench.campaign.spec import CampaignSpec
+from truthbench.errors import DataFormatError
 from truthbench.measure.frfdata import FRFData
 
 if TYPE_CHECKING:
@@ -35,13 +38,6 @@ STAGES = ("simulate", "frf", "identify", "bound", "update", "score")
 """Stages timed per trial (:attr:`TrialResult.seconds`): truth simulation, FRF
 estimation, modal identification, the uncertainty models (modal bound and FRF band),
 the updaters, and scoring against the truth (model FRFs and modal accuracy)."""
-
-
-def frf_unit(output, input) -> str:  # noqa: A002 - the FRF's input channel
-    """The unit of an FRF from ``input`` to ``output``
-    (:class:`~truthbench.measure.frfdata.Channel`): ``"m/s^2/N"``, ``"rad/s/(N m)"``."""
-    den = input.unit
-    return f"{output.unit}/({den})" if " " in den else f"{output.unit}/{den}"
 
 
 @dataclass(frozen=True)
@@ -115,7 +111,7 @@ class TrialResult:
     tests : tuple of TestRecord
         In campaign order.
     truth : dict
-        The trial's hardware truth for scoring (:func:`~truthbench.campaign.runner.
+        The trial's hardware truth for scoring (:func:`~truthbench.campaign.trial.
         hardware_truth`), name -> value in the parameter's unit.
     update : UpdateResult or None
         The primary updater's result; None when the campaign does not update, or the
@@ -210,18 +206,57 @@ class CampaignResult:
     # ---- files -----------------------------------------------------------------------
     @classmethod
     def load(cls, path: str | Path) -> CampaignResult:
-        """Read a results file written by :meth:`save` (or ``truthbench run``), or a
-        single-test file of ``truthbench simulate``.
+        """Read a results file written by :meth:`save` (or ``truthbench run``), a
+        single-test file of ``truthbench simulate``, or a run's folder.
+
+        A single-test file gives a result with one trial (its number from the file)
+        holding the one test, an empty trial truth and no update; ``injected`` lists the
+        effects injected. A run's folder gives its ``results.h5``, or, for a run that has
+        not finished (interrupted, or still running), the trials its store holds
+        (:class:`~truthbench.campaign.store.TrialStore`). Files written before channels
+        and FRF metadata were stored get them from the stored spec (channels without
+        coordinates, the band from the spec's tests).
 
         Raises
         ------
         DataFormatError
-            Naming the file: missing, not HDF5, not a truthbench results file, or a
-            stored part that does not parse (with its HDF5 path).
+            Naming the file: missing, not HDF5, not a truthbench results file, a stored
+            spec that is not a valid campaign, or a stored part that does not parse
+            (with its HDF5 path).
         """
-        from truthbench.campaign.store import load_results
+        from truthbench.campaign.store import (
+            RESULTS_FILE,
+            RUN_FILE,
+            TRIALS_DIR,
+            StoreError,
+            TrialStore,
+        )
+        from truthbench.io import hdf5
 
-        return load_results(path)
+        path = Path(path)
+        if path.is_dir():  # a run's folder: its results file, else its (partial) store
+            if (path / RESULTS_FILE).is_file():
+                path = path / RESULTS_FILE
+            else:
+                store = TrialStore(path.parent if path.name == TRIALS_DIR else path)
+                if not store.exists:
+                    raise DataFormatError(f"{path}: holds neither {RESULTS_FILE} nor a run "
+                                          f"store ({TRIALS_DIR}/{RUN_FILE})")
+                try:
+                    return store.load()
+                except StoreError as exc:
+                    raise DataFormatError(str(exc)) from None
+        with hdf5.reading(path) as f:
+            a = hdf5.read_attrs(f)
+            spec = _stored_spec(a, path)
+            body = hdf5.read_body(f, a, _legacy(spec))
+            common = dict(spec=spec, seed=int(a["seed"]), version=str(a["truthbench_version"]),
+                          created_utc=a.get("created_utc"), path=str(path),
+                          trials=tuple(_trial(spec, t) for t in body["trials"]))
+            if a["single_test"]:
+                return cls(nominal=spec.nominal_parameters(),
+                           injected=tuple(json.loads(a.get("injected", "[]"))), **common)
+            return cls(nominal=body["nominal"], **common)
 
     def save(self, path: str | Path) -> Path:
         """Write to HDF5 (:func:`~truthbench.campaign.store.write_results`)."""
@@ -350,3 +385,73 @@ class CampaignResult:
         if kind == "frf":
             return figures.plot_frf(self, tr, test, **kwargs)
         return funcs[kind](self, tr, **kwargs)
+
+
+# ---- reading a results file back -------------------------------------------------------
+def _stored_spec(attrs, path) -> CampaignSpec:
+    """The campaign a file stores (its ``spec_json``), validated."""
+    from truthbench.campaign.spec import parse_campaign
+    from truthbench.errors import CampaignError
+
+    try:
+        return parse_campaign(attrs["spec"], source=attrs.get("source", str(path)))
+    except CampaignError as exc:
+        raise DataFormatError(f"{path}: attribute 'spec_json' is not a valid campaign "
+                              f"({type(exc).__name__}: {exc})") from None
+
+
+def _legacy(spec) -> dict:
+    """Per test, what files written before channels and FRF metadata were stored lack:
+    the channels (without coordinates) and the band, from the spec."""
+    from truthbench.measure.frfdata import Channel
+
+    out = {}
+    for j, t in enumerate(spec.tests):
+        actuators, sensors = spec.test_io(j)
+        out[t.name] = {
+            "outputs": tuple(Channel(s.label, s.quantity, s.direction, station=s.station)
+                             for s in sensors),
+            "inputs": tuple(Channel(a.label, "force", a.direction, station=a.station)
+                            for a in actuators),
+            "band_hz": tuple(t.band_hz)}
+    return out
+
+
+def _trial(spec, d: dict):
+    """A :class:`~truthbench.campaign.results.TrialResult` from what
+    :func:`truthbench.io.hdf5.read_body` read of it: the typed parts, the updaters and
+    accuracies in the campaign's order."""
+    from truthbench.campaign.frf_band_stage import FrfBandStage
+    from truthbench.campaign.uncertainty_stage import UncertaintyStage
+    from truthbench.identify import ModalParameters
+    from truthbench.uncertainty.frequency import FrfUncertainty
+    from truthbench.update.finite_difference import UpdateResult
+
+    methods = spec.update_methods()
+
+    def by_method(keys):
+        return sorted(keys, key=lambda m: (methods.index(m) if m in methods
+                                           else len(methods), m))
+
+    tests = tuple(TestRecord(**{**r, "modes": None if r["modes"] is None
+                                else ModalParameters(**r["modes"])}) for r in d["tests"])
+    kw = {k: d[k] for k in ("H_initial", "H_updated", "update_mask") if k in d}
+    if "update" in d:
+        kw["update"] = UpdateResult(**d["update"])
+        kw["comparison"] = {m: c if isinstance(c, str) else UpdateResult(**c)
+                            for m in by_method(d["comparison"]) for c in [d["comparison"][m]]}
+    if "accuracy" in d:
+        keys = list(d["accuracy"])
+        order = ((["initial"] if "initial" in keys else [])
+                 + by_method(k for k in keys if k not in ("initial", "updated"))
+                 + (["updated"] if "updated" in keys else []))
+        kw["accuracy"] = {k: d["accuracy"][k] for k in order}
+    if "uncertainty" in d:
+        kw["uncertainty"] = UncertaintyStage(**d["uncertainty"])
+    if "frf_band" in d:
+        b = d["frf_band"]
+        band = FrfUncertainty(b["mean"], b["cov"], b["n_tests"], b["k_sigma"], b["freq_hz"])
+        kw["frf_band"] = FrfBandStage(b["tests"], band, b["line_mask"], b["inside"],
+                                      b["output_labels"], b["input_labels"])
+    return TrialResult(d["trial"], tests, d["truth"], error=d.get("error"),
+                       seconds=d.get("seconds", {}), **kw)

@@ -28,13 +28,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from truthbench._validation import (
-    available_memory_bytes,
-    format_bytes,
-    is_safe_name,
-    name_rule,
-    read_text,
-)
+from truthbench._validation import is_safe_name, name_rule, read_text
 from truthbench.errors import CampaignError, ModelError
 
 Direction = Literal["x", "y", "z", "rx", "ry", "rz"]
@@ -252,6 +246,15 @@ class PlantSpec(_Strict):
         if self.supports is not None:
             options["supports"] = self.supports
         return options
+
+
+@functools.lru_cache(maxsize=16)
+def _plant(plant_json: str):
+    """The plant builder of a ``[plant]`` table (given as its JSON)."""
+    from truthbench.plants import make_plant
+
+    plant = PlantSpec.model_validate_json(plant_json)
+    return make_plant(plant.type, **plant.plant_options())
 
 
 def _base_plant(plant: PlantSpec):
@@ -535,10 +538,9 @@ class CampaignSpec(_Strict):
 
     def make_plant(self):
         """The plant builder of this campaign (section, material, stations and suspension
-        points as node fractions)."""
-        from truthbench.plants import make_plant
-
-        return make_plant(self.plant.type, **self.plant.plant_options())
+        points as node fractions): one per plant table and process (plants are
+        immutable)."""
+        return _plant(self.plant.model_dump_json())
 
     def nominal_parameters(self) -> dict[str, float]:
         return self.make_plant().resolve(self.plant.parameters)
@@ -758,6 +760,9 @@ def _check_geometry_effects(spec: CampaignSpec, plant) -> None:
 
 
 def _check_references(spec: CampaignSpec) -> None:
+    from truthbench.campaign.plan import CampaignPlan, record_samples
+    from truthbench.campaign.resources import check_memory
+
     src = spec.source
     try:
         plant = spec.make_plant()
@@ -862,17 +867,17 @@ def _check_references(spec: CampaignSpec) -> None:
                 f"{src}: key 'tests[{j}].noise_fraction': expected at most sqrt(2 averages) "
                 f"= {limit:.4g} for {t.averages} averages (beyond it the random error of "
                 f"|H1| exceeds 100 %: the FRF holds no information); got {t.noise_fraction!r}")
-        n = int(round(t.record_s * t.fs_hz))
+        n = record_samples(t)
         if n // t.averages < 16:
             raise CampaignError(f"{src}: key 'tests[{j}].averages': {t.averages} averages of a "
                                 f"{n}-sample record leave fewer than 16 samples per segment")
     _check_channels(spec)
-    _check_update_lines(spec)
-    _check_memory(spec, plant)
+    plan = CampaignPlan.compile(spec)
+    check_memory(plan)  # first: the lines of a record that cannot fit are not listed
+    _check_update_lines(plan)
     # m r > p (METHOD 5.1): SISO pairs over all tests against updated parameters
     if any("frf" in UPDATERS[m].needs for m in spec.update_methods()):
-        pairs = sum(len(t.actuators) * len(spec.test_sensors(j)) for j, t in
-                    enumerate(spec.tests))
+        pairs = plan.n_pairs
         p = len(spec.update.parameters)
         if pairs <= p:
             raise CampaignError(
@@ -934,83 +939,17 @@ def _check_channels(spec: CampaignSpec) -> None:
             once(t.sensors, f"tests[{j}].sensors", ("station", "direction", "quantity"))
 
 
-def frequency_lines(test: TestSpec):
-    """The frequency lines of a test's FRF: multiples of ``fs / nperseg`` from 0 to
-    ``fs / 2``, ``nperseg = samples // averages`` (as the runner's H1 estimate).
-
-    Returns
-    -------
-    (df_hz, n_lines) : (float, int)
-    """
-    n = int(round(test.record_s * test.fs_hz))
-    nper = n // test.averages
-    return test.fs_hz / nper, nper // 2 + 1
-
-
-def _check_update_lines(spec: CampaignSpec) -> None:
-    """Every test has frequency lines inside the update band (the runner intersects the
-    two bands; a test without lines there cannot be updated against)."""
-    if not spec.update_methods() or spec.update.band_hz is None:
+def _check_update_lines(plan) -> None:
+    """Every test has frequency lines inside the update band (a test without lines there
+    cannot be updated against; :meth:`~truthbench.campaign.plan.TestPlan.update_lines`)."""
+    spec = plan.spec
+    if not plan.methods or spec.update.band_hz is None:
         return
-    ulo, uhi = spec.update.band_hz
-    empty = []
-    for t in spec.tests:
-        lo, hi = max(t.band_hz[0], ulo), min(t.band_hz[1], uhi)
-        df, n_lines = frequency_lines(t)
-        first = max(1, math.ceil(lo / df - 1e-9))
-        last = min(n_lines - 1, math.floor(hi / df + 1e-9))
-        if last < first:
-            empty.append(f"{t.name!r} (band {t.band_hz[0]:g}-{t.band_hz[1]:g} Hz)")
+    empty = [f"{t.name!r} (band {t.band_hz[0]:g}-{t.band_hz[1]:g} Hz)" for t in plan.tests
+             if not t.update_lines().any()]
     if empty:
+        ulo, uhi = spec.update.band_hz
         raise CampaignError(
             f"{spec.source}: key 'update.band_hz': expected a band that overlaps every "
             f"test's excited band with at least one frequency line; got "
             f"{ulo:g}-{uhi:g} Hz, which holds no line of {', '.join(empty)}")
-
-
-def memory_estimate_bytes(spec: CampaignSpec, j: int, n_dofs: int) -> tuple[int, str]:
-    """A lower bound of the memory test ``j`` holds at once while it is simulated.
-
-    The larger of (a) its records, samples x channels x 8 bytes (x ``oversample`` on
-    the time path, which steps at that multiple of the rate), and (b) on the periodic
-    path the modal response at every line, lines x model DOFs x 16 bytes (one complex
-    number per line and mode; the measured peak is about 26 bytes per line and DOF).
-
-    Returns
-    -------
-    (bytes, what) : (int, str)
-        The bound and how it was counted.
-    """
-    t = spec.tests[j]
-    n = int(round(t.record_s * t.fs_hz))
-    channels = len(t.actuators) + len(spec.test_sensors(j))
-    time_path = t.simulation == "time" or any(
-        e.effect.target == "nonlinear" for e in spec.truth_effects() + spec.test_effects(j))
-    factor = t.oversample if time_path else 1
-    records = 8 * n * channels * factor
-    what = (f"{n} samples x {channels} channels x 8 bytes"
-            + (f" x oversample {factor}" if factor > 1 else ""))
-    if not time_path:
-        modal = 16 * (n // 2 + 1) * n_dofs
-        if modal > records:
-            return modal, f"{n // 2 + 1} lines x {n_dofs} DOFs x 16 bytes"
-    return records, what
-
-
-def _check_memory(spec: CampaignSpec, plant) -> None:
-    """Refuse a test whose arrays cannot fit in the memory available now (before any
-    work; :func:`memory_estimate_bytes`)."""
-    available = available_memory_bytes()
-    if available is None:
-        return
-    for j, t in enumerate(spec.tests):
-        refine = max([int(e.options.get("refine", 1)) for e in spec.truth_effects()
-                      + spec.test_effects(j) if e.name == "discretization"] or [1])
-        n_dofs = 6 * (spec.plant.n_elements * refine + 1)  # the truth's mesh
-        need, what = memory_estimate_bytes(spec, j, n_dofs)
-        if need > available:
-            raise CampaignError(
-                f"{spec.source}: key 'tests[{j}].record_s': test {t.name!r} needs at least "
-                f"{format_bytes(need)} ({what}), more than the {format_bytes(available)} "
-                f"of memory available; expected a shorter record or a lower fs_hz "
-                f"(record_s {t.record_s:g} s at fs_hz {t.fs_hz:g} Hz)")

@@ -25,7 +25,7 @@ are summaries only)."""
 
 _APPENDED_UNITS = {"delay_s": "s", "sensor_gain": "-"}
 """Units of the measurement-chain update parameters
-(:data:`truthbench.campaign.runner.APPENDED_PARAMETERS`)."""
+(:data:`truthbench.update.APPENDED_PARAMETERS`)."""
 
 
 def parameter_unit(spec, name: str) -> str:

@@ -14,9 +14,11 @@ drift          ``(i, 4, k)``: a Wiener path over the sorted test times ``time_h`
 =============  ===========================================================================
 
 Test-only effects use ``k = 1000 + j * 100 + index`` so they never share a stream with
-the campaign's effects. The excitation and sensor noise of test ``j`` use ``(i, 0, j)``.
-So the draws do not depend on worker count or order, and changing one test's settings
-changes only that test's data (unless it changes its assembly index or time).
+the campaign's effects (the keys are worked out once, in
+:attr:`TestPlan.effects <truthbench.campaign.plan.TestPlan>`). The excitation and
+sensor noise of test ``j`` use ``(i, 0, j)``. So the draws do not depend on worker count
+or order, and changing one test's settings changes only that test's data (unless it
+changes its assembly index or time).
 """
 
 from __future__ import annotations
@@ -30,9 +32,9 @@ def _rng(seed: int, *key: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
 
-def _drift(spec, eff, k: int, seed: int, trial: int, t_h: float) -> dict[str, float]:
+def _drift(plan, eff, k: int, seed: int, trial: int, t_h: float) -> dict[str, float]:
     """Value at time ``t_h`` of a Wiener path through the campaign's test times."""
-    times = sorted({0.0, *(t.time_h for t in spec.tests)})
+    times = plan.test_times_h
     rng = _rng(seed, trial, 4, k)
     walk = {p.name: [0.0] for p in eff.effect.params}
     for a, b in zip(times[:-1], times[1:], strict=True):
@@ -47,32 +49,29 @@ def _drift(spec, eff, k: int, seed: int, trial: int, t_h: float) -> dict[str, fl
     return out
 
 
-def _values(spec, eff, k: int, seed: int, trial: int, j: int) -> dict[str, float]:
-    test = spec.tests[j]
+def _values(plan, test, eff, k: int, seed: int, trial: int) -> dict[str, float]:
     if eff.scope == "hardware":
         return draw(eff, _rng(seed, trial, 1, k))
     if eff.scope == "reassembly":
-        return draw(eff, _rng(seed, trial, 2, k, test.assembly))
+        return draw(eff, _rng(seed, trial, 2, k, test.test.assembly))
     if eff.scope == "test":
-        return draw(eff, _rng(seed, trial, 3, k, j))
-    return _drift(spec, eff, k, seed, trial, test.time_h)
+        return draw(eff, _rng(seed, trial, 3, k, test.index))
+    return _drift(plan, eff, k, seed, trial, test.test.time_h)
 
 
-def build_hardware(spec, trial: int, j: int, seed: int, extra_effects=()) -> Hardware:
-    """The realised truth of test ``j`` in trial ``trial``, instrumented with the test's
-    actuators and sensors.
+def build_hardware(plan, test, trial: int, seed: int, extra_effects=()) -> Hardware:
+    """The realised truth of ``test`` (a :class:`~truthbench.campaign.plan.TestPlan` of
+    ``plan``) in trial ``trial``, instrumented with the test's actuators and sensors.
 
     ``extra_effects`` (:class:`~truthbench.effects.EffectSpec`) are added after the
     campaign's own effects, with streams of their own: this is how data with an
     undeclared effect are made (``truthbench simulate --inject``).
     """
-    actuators, sensors = spec.test_io(j)
-    builder = SetupBuilder(plant=spec.make_plant(), parameters=spec.truth_parameters(),
-                           actuators=actuators, sensors=sensors)
-    entries = [(k, e) for k, e in enumerate(spec.truth_effects())]
-    entries += [(1000 + 100 * j + n, e) for n, e in enumerate(spec.test_effects(j))]
+    builder = SetupBuilder(plant=plan.plant, parameters=dict(plan.truth),
+                           actuators=test.actuators, sensors=test.sensors)
+    entries = list(test.effects)
     entries += [(100000 + n, e) for n, e in enumerate(extra_effects)]
     for k, eff in entries:
         label = eff.name if eff.name not in builder.effects else f"{eff.name}#{k}"
-        builder.add(eff, _values(spec, eff, k, seed, trial, j), label)
+        builder.add(eff, _values(plan, test, eff, k, seed, trial), label)
     return builder.freeze()

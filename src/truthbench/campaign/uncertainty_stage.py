@@ -62,24 +62,16 @@ class UncertaintyStage:
         return int(np.count_nonzero(~self.holdout))
 
 
-def uncertainty_band(spec) -> tuple[float, float]:
-    """``[uncertainty] band_hz``, else the analysis band (update band or the tests')."""
-    from truthbench.campaign.metrics import analysis_band
-
-    return tuple(spec.uncertainty.band_hz or analysis_band(spec))
-
-
-def model_values(spec, params: dict, mode_index) -> np.ndarray:
-    """``[f..., zeta...]`` of the model at ``params`` for the initial model's modes
-    ``mode_index`` (paired by MAC at the first test's sensors)."""
+def model_values(plan, params: dict, mode_index) -> np.ndarray:
+    """``[f..., zeta...]`` of the campaign's model (``plan``, a
+    :class:`~truthbench.campaign.plan.CampaignPlan`) at ``params`` for the initial
+    model's modes ``mode_index`` (paired by MAC at the first test's sensors)."""
     from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
 
-    sensors = displacement_sensors(spec.test_sensors(0))
-    band = uncertainty_band(spec)
-    plant = spec.make_plant()
-    ref = modes_at_sensors(plant.build(spec.nominal_parameters(), [], sensors), sensors,
-                           band, 40)
-    other = modes_at_sensors(plant.build(params, [], sensors), sensors, band, 40)
+    sensors = displacement_sensors(plan.tests[0].sensors)
+    band = plan.uncertainty_band_hz
+    ref = modes_at_sensors(plan.plant.build(plan.nominal, [], sensors), sensors, band, 40)
+    other = modes_at_sensors(plan.plant.build(params, [], sensors), sensors, band, 40)
     k = _pair(ref, other)[mode_index]
     f = np.where(k >= 0, other.freq_hz[k], np.nan)
     z = np.where(k >= 0, other.damping_ratio[k], np.nan)
@@ -99,28 +91,35 @@ def _pair(reference, other):
     return out
 
 
-def uncertainty_stage(spec, trial: int, seed: int, records, params0: dict):
+def uncertainty_stage(plan, records, hardware):
     """The uncertainty model of one trial's tests, or None when fewer than two tests
-    identified a common mode (nothing to bound)."""
+    identified a common mode (nothing to bound).
+
+    Parameters
+    ----------
+    plan : CampaignPlan
+    records : sequence of TestRecord
+        The trial's tests, with their identified modes.
+    hardware : sequence of Hardware
+        The truth of each test (:func:`~truthbench.campaign.truth.build_hardware`).
+    """
     from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
-    from truthbench.campaign.truth import build_hardware
     from truthbench.identify import ModalParameters
     from truthbench.uncertainty import uncertainty_model
 
-    band = uncertainty_band(spec)
-    plant = spec.make_plant()
+    band = plan.uncertainty_band_hz
     f_t, z_t, f_true, z_true = [], [], [], []
     ref = None
-    for j, rec in enumerate(records):
-        sensors = displacement_sensors(spec.test_sensors(j))
-        model = modes_at_sensors(plant.build(params0, [], sensors), sensors, band, 40)
+    for test, rec, setup in zip(plan.tests, records, hardware, strict=True):
+        sensors = displacement_sensors(test.sensors)
+        model = modes_at_sensors(plan.plant.build(plan.nominal, [], sensors), sensors, band,
+                                 40)
         ref = model if ref is None else ref
         ident = rec.modes
         if ident is None:
             return None
         ident = ModalParameters(ident.freq_hz, ident.damping_ratio, ident.shapes)
         k = _pair(model, ident)
-        setup = build_hardware(spec, trial, j, seed)
         truth = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors,
                                                    setup.additions), sensors, band, 60)
         kt = _pair(model, truth)
@@ -139,9 +138,10 @@ def uncertainty_stage(spec, trial: int, seed: int, records, params0: dict):
     theta_0 = np.concatenate([ref.freq_hz[idx], ref.damping_ratio[idx]])
     tests = np.hstack([f_t[:, idx], z_t[:, idx]])
     truth = np.hstack([np.array(f_true)[:, idx], np.array(z_true)[:, idx]])
-    holdout = np.array([t.name in spec.uncertainty.holdout for t in spec.tests])
+    settings = plan.spec.uncertainty
+    holdout = np.array([t.name in settings.holdout for t in plan.tests])
     um = uncertainty_model(tests[~holdout], theta_0, names=names, covariance="diagonal",
-                           k_sigma=spec.uncertainty.k_sigma)
+                           k_sigma=settings.k_sigma)
     inside = um.contains(truth)
     return UncertaintyStage(names, theta_0, tests, truth, np.asarray(um.mean),
                             np.asarray(um.std), np.asarray(um.bound), np.asarray(inside), idx,

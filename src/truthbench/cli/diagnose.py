@@ -7,7 +7,6 @@ from __future__ import annotations
 def _cmd_diagnose(args) -> int:
     import json
 
-    import truthbench.campaign.store  # noqa: F401  (registers the .h5 reader)
     from truthbench.campaign.model_file import load_model
     from truthbench.diagnose import diagnose
     from truthbench.io import load_measurements

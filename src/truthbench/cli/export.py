@@ -9,7 +9,6 @@ OUT_SUFFIXES = (".uff", ".unv")
 
 
 def _cmd_export(args) -> int:
-    import truthbench.campaign.store  # noqa: F401  (registers the .h5/.hdf5 reader)
     from truthbench._validation import check_output_file
     from truthbench.errors import DataFormatError
     from truthbench.io import load_frf, number_points, write_uff

@@ -13,7 +13,6 @@ def _fmt_shape(values) -> str:
 
 
 def _cmd_identify(args) -> int:
-    import truthbench.campaign.store  # noqa: F401  (registers the .h5/.hdf5 reader)
     from truthbench.cli._args import dumps
     from truthbench.errors import DataFormatError
     from truthbench.identify.workflow import EULER_BERNOULLI_FREE_FREE_RATIOS, identify_file

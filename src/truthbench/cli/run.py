@@ -93,13 +93,10 @@ def setup_logging(verbose: int, quiet: bool) -> None:
 
 
 def _cmd_run(args) -> int:
-    from truthbench.campaign.runner import (
-        available_cores,
-        check_resources,
-        estimate_resources,
-        make_engine,
-        run_to_store,
-    )
+    from truthbench.campaign.engines import available_cores, make_engine
+    from truthbench.campaign.plan import CampaignPlan
+    from truthbench.campaign.resources import check_resources, estimate_resources
+    from truthbench.campaign.runner import run_to_store
     from truthbench.campaign.spec import load_campaign
     from truthbench.campaign.store import RESULTS_FILE, StoreError, TrialStore
 
@@ -138,7 +135,8 @@ def _cmd_run(args) -> int:
     elif args.force and earlier:
         _clear(out)
     _check_writable(out)
-    est = estimate_resources(spec, n_trials)
+    plan = CampaignPlan.compile(spec)
+    est = estimate_resources(plan, n_trials)
     check_resources(est, workers=1 if args.scheduler not in (None, "local") else jobs,
                     folder=out)
     done0 = len(store.done()) if store.exists else 0
@@ -168,7 +166,7 @@ def _cmd_run(args) -> int:
         engine = make_engine(jobs, args.scheduler) if todo > 0 else None
         if engine is not None:
             log.info("running %d trial(s) on %s", todo, engine.label)
-        summary = run_to_store(spec, out, trials=n_trials, seed=seed, resume=args.resume,
+        summary = run_to_store(plan, out, trials=n_trials, seed=seed, resume=args.resume,
                                progress=progress, engine=engine)
     except KeyboardInterrupt:
         if engine is not None:

@@ -15,61 +15,43 @@ from __future__ import annotations
 import sys
 
 
-def _lines(spec):
-    """The update's lines of every test (FRF lines inside the test's and the update's
-    bands, above 0 Hz), from the records' lengths and averages."""
-    import numpy as np
-
-    out = []
-    for t in spec.tests:
-        n = int(round(t.record_s * t.fs_hz))
-        f = np.fft.rfftfreq(max(n // t.averages, 1), 1.0 / t.fs_hz)
-        lo, hi = t.band_hz
-        if spec.update.band_hz is not None:
-            lo, hi = max(lo, spec.update.band_hz[0]), min(hi, spec.update.band_hz[1])
-        out.append(f[(f >= lo) & (f <= hi) & (f > 0)])
-    return out
-
-
 def check_campaign(spec, trials: int | None = None, jobs: int = 1) -> list[tuple[bool, str]]:
     """Every check as ``(passed, message)``."""
     import numpy as np
 
-    from truthbench.campaign.runner import (
-        available_cores,
-        available_memory_mb,
-        estimate_resources,
-    )
+    from truthbench.campaign.engines import available_cores
+    from truthbench.campaign.plan import CampaignPlan
+    from truthbench.campaign.resources import available_memory_mb, estimate_resources
+    from truthbench.campaign.trial import predictor
     from truthbench.errors import IdentifiabilityError
-    from truthbench.update import FRFPredictor, PredictedTest
     from truthbench.update.finite_difference import _stack, sensitivity_matrix
     from truthbench.update.identifiability import check_identifiable
 
     out = []
-    names = tuple(spec.update.parameters)
-    methods = spec.update_methods()
+    plan = CampaignPlan.compile(spec)
+    names = plan.update_names
+    methods = plan.methods
     p = len(names)
-    pairs = sum(len(a) * len(s) for a, s in (spec.test_io(j) for j in range(len(spec.tests))))
+    pairs = plan.n_pairs
     if "finite_difference" in methods:
         out.append((pairs > p, f"m r > p: {pairs} SISO transfer functions over the tests "
                                f"against {p} parameter(s) {list(names)}"))
-    nyquist = min(t.fs_hz / 2 for t in spec.tests)
-    for j, t in enumerate(spec.tests):
-        out.append((t.band_hz[1] <= t.fs_hz / 2, f"tests[{j}] {t.name!r}: band "
+    nyquist = min(t.fs_hz / 2 for t in plan.tests)
+    for t in plan.tests:
+        out.append((t.band_hz[1] <= t.fs_hz / 2, f"tests[{t.index}] {t.name!r}: band "
                     f"{t.band_hz[0]:g}-{t.band_hz[1]:g} Hz inside Nyquist "
                     f"({t.fs_hz / 2:g} Hz)"))
-    lines = _lines(spec)
+    # the update's lines of every test: inside the test's and the update's bands
+    lines = [t.freq_hz[t.update_lines()] for t in plan.tests]
     if spec.update.band_hz is not None and methods:
         lo, hi = spec.update.band_hz
-        empty = [t.name for t, f in zip(spec.tests, lines, strict=True) if f.size == 0]
-        out.append((hi <= max(t.fs_hz / 2 for t in spec.tests),
+        empty = [t.name for t, f in zip(plan.tests, lines, strict=True) if f.size == 0]
+        out.append((hi <= max(t.fs_hz / 2 for t in plan.tests),
                     f"update band {lo:g}-{hi:g} Hz inside Nyquist (lowest {nyquist:g} Hz)"))
         out.append((not empty, f"update band {lo:g}-{hi:g} Hz overlaps every test's band"
                     + (f"; no line of {empty}" if empty else "")))
     if "finite_difference" in methods and pairs > p and all(f.size for f in lines):
-        tests = [PredictedTest(t.name, f, *spec.test_io(j))
-                 for j, (t, f) in enumerate(zip(spec.tests, lines, strict=True))]
-        pred = FRFPredictor(spec.make_plant(), spec.nominal_parameters(), tests)
+        pred = predictor(plan, lines)
         theta = {**pred.theta0}
         additive = pred.additive_scales(names)
         try:
@@ -88,7 +70,7 @@ def check_campaign(spec, trials: int | None = None, jobs: int = 1) -> list[tuple
         out.append((True, "identifiability of the sensitivity method depends on the "
                           "identified modes; not checked before a run"))
     n_trials = spec.campaign.trials if trials is None else int(trials)
-    est = estimate_resources(spec, n_trials)
+    est = estimate_resources(plan, n_trials)
     workers = min(jobs, available_cores())
     mem = available_memory_mb()
     need = est.worker_mb * workers

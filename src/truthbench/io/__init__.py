@@ -2,8 +2,11 @@
 
 - :mod:`truthbench.io.registry`: :func:`load_frf`, the one entry that reads a data file
   into a tuple of FRFData with the reader registered for its extension, and the
-  :func:`register_reader` hook (the campaign store registers ``.h5`` / ``.hdf5`` when it
-  is imported; ``import truthbench`` imports it).
+  :func:`register_reader` hook; this package registers its own readers (``.h5`` /
+  ``.hdf5``, ``.uff`` / ``.unv``, ``.lvm``) when it is imported.
+- :mod:`truthbench.io.hdf5`: truthbench's HDF5 results and single-test files (the
+  layout, writing, reading back as plain data) and :func:`read_frf`, their FRFData
+  reader.
 - :mod:`truthbench.io.measurements`: :func:`load_measurements`, several data files as
   acquisition systems export them: coherence-only UFF files paired with their FRF sets,
   excitation levels (``input_rms_n``) by data-set name.
@@ -27,6 +30,7 @@ The room imports :mod:`truthbench.measure` only inside its functions, so importi
 (and ``import truthbench``) stays light.
 """
 
+from truthbench.io.hdf5 import read_frf
 from truthbench.io.lvm import (
     G_STANDARD_M_S2,
     LADISK_BEAM_IMPACT_SHA256,
@@ -59,6 +63,8 @@ from truthbench.io.uff_frf import (
 )
 from truthbench.io.units import SI, UnitSystem, parse_unit
 
+register_reader(".h5", read_frf)
+register_reader(".hdf5", read_frf)
 register_reader(".lvm", read_lvm_frf)
 register_reader(".uff", read_uff)
 register_reader(".unv", read_uff)
@@ -83,6 +89,7 @@ __all__ = [
     "load_measurements",
     "number_points",
     "parse_unit",
+    "read_frf",
     "read_lvm",
     "read_lvm_frf",
     "read_uff",

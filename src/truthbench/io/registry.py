@@ -1,18 +1,15 @@
 """FRF readers by file extension: :func:`load_frf` and the :func:`register_reader` hook.
 
 Every registered reader is a function ``reader(path, **options) -> tuple[FRFData, ...]``
-(:class:`truthbench.measure.FRFData`). The io room registers its own at import
-(``.uff`` / ``.unv`` -> :func:`~truthbench.io.read_uff`, ``.lvm`` ->
-:func:`~truthbench.io.read_lvm_frf`). Another room registers its readers when its module
-is imported, e.g. the campaign room's results store (imported by ``import truthbench``)::
+(:class:`truthbench.measure.FRFData`). The io room registers its own when it is imported
+(``.h5`` / ``.hdf5`` -> :func:`~truthbench.io.hdf5.read_frf`, ``.uff`` / ``.unv`` ->
+:func:`~truthbench.io.read_uff`, ``.lvm`` -> :func:`~truthbench.io.read_lvm_frf`); code
+elsewhere adds a format the same way::
 
     from truthbench.io import register_reader
-    register_reader(".h5", read_frf)
-    register_reader(".hdf5", read_frf)
+    register_reader(".xyz", read_xyz)
 
-No reader is registered at call time. ``.h5`` and ``.hdf5`` are *reserved* for that HDF5
-reader: until it is registered, :func:`load_frf` raises a
-:class:`~truthbench.errors.DataFormatError` that says so.
+No reader is registered at call time.
 """
 
 from __future__ import annotations
@@ -32,11 +29,6 @@ __all__ = ["load_frf", "register_reader", "registered_extensions"]
 
 Reader = Callable[..., Any]
 
-# Extensions whose reader lives in another room and is registered by it.
-_RESERVED = {
-    ".h5": "truthbench.campaign.store (HDF5 results store)",
-    ".hdf5": "truthbench.campaign.store (HDF5 results store)",
-}
 _READERS: dict[str, Reader] = {}
 
 
@@ -167,18 +159,9 @@ def _reader_for(path: str | PathLike) -> tuple[str, Reader]:
     ext = p.suffix.lower()
     reader = _READERS.get(ext)
     if reader is None:
-        supported = ", ".join(registered_extensions())
-        if ext in _RESERVED:
-            raise DataFormatError(
-                f"{p}: no reader registered yet for {ext!r}: it is provided by "
-                f"{_RESERVED[ext]}, which registers it with "
-                f"truthbench.io.register_reader({ext!r}, func); supported now: {supported}"
-            )
-        pending = ", ".join(sorted(set(_RESERVED) - set(_READERS)))
-        later = f" ({pending} once their reader is registered)" if pending else ""
         raise DataFormatError(
             f"{p}: unknown file extension {ext or '(none)'!r}; expected one of: "
-            f"{supported}{later}"
+            f"{', '.join(registered_extensions())}"
         )
     return ext, reader
 
