@@ -365,13 +365,14 @@ def truth_of(spec: CampaignSpec, draw: TrialDraw, form: str) -> Truth:
         options = dict(inj.options)
         value, x_m, bending = inj.value, None, None
         if inj.fraction is not None:
-            fine = _node(inj.fraction, n * r)
-            node = fine if other else min(max(round(fine / r), 1), n - 1)
+            fine = _node(inj.fraction, n * r)  # the same form: the nearest model node
+            node = fine if other else min(max(int(fine / r + 0.5), 1), n - 1)
             options["station"] = f"{prefix}{node}"
             x_m = float(x[node])
             if inj.effect == "joint":
                 EI, h = element_bending(plant, params, node, options["direction"])
-                value = joint_loss(EI, h, joint_stiffness(EI, h * size / n, inj.value))
+                h_model = h * size / n
+                value = joint_loss(EI, h, joint_stiffness(EI, h_model, inj.value))
                 bending = (EI, h)
                 x_m += h / 2
         entry = {"name": inj.effect, **options, "parameters": {inj.parameter: value}}
