@@ -323,6 +323,22 @@ class Truth:
     allowed: frozenset[str]
 
 
+def _study_spec(spec: CampaignSpec, refine: int = 1) -> CampaignSpec:
+    """The campaign on a mesh ``refine`` times the model's with a station at every node
+    (``n<k>`` on the model's mesh, ``f<k>`` on a finer one: effects are placed there)
+    and the model's suspension points."""
+    model = spec.make_plant()
+    size = model.n_elements * refine
+    prefix = "n" if refine == 1 else "f"
+    stations, _ = spec.plant.resolved_positions()
+    stations = {**stations, **{f"{prefix}{k}": k / size for k in range(size + 1)}}
+    update: dict = {"stations": stations, "n_elements": size}
+    if refine != 1 and hasattr(model, "suspension_nodes"):  # on nodes of the finer mesh
+        x = model.node_x_m(spec.nominal_parameters())
+        update["suspension_x_m"] = [float(x[k]) for k in model.suspension_nodes()]
+    return spec.model_copy(update={"plant": spec.plant.model_copy(update=update)})
+
+
 def _node(fraction: float, n_elements: int) -> int:
     """An interior node of an ``n_elements`` mesh, uniform over them for a uniform
     fraction in [0, 1)."""
@@ -334,26 +350,16 @@ def truth_of(spec: CampaignSpec, draw: TrialDraw, form: str) -> Truth:
     docstring)."""
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}; got {form!r}")
-    model = spec.make_plant()
     nominal = spec.nominal_parameters()
-    n = model.n_elements
+    n = spec.plant.n_elements
     other = form == "other"
     r = draw.other.refine
     size = n * r if other else n
     prefix = "f" if other else "n"
-    stations, _ = spec.plant.resolved_positions()
-    stations = {**stations, **{f"{prefix}{k}": k / size for k in range(size + 1)}}
-    plant_update: dict = {"stations": stations}
-    if other:
-        plant_update["n_elements"] = size
-        if hasattr(model, "suspension_nodes"):  # the model's points, on the finer mesh
-            x = model.node_x_m(nominal)
-            plant_update["suspension_x_m"] = [float(x[k]) for k in model.suspension_nodes()]
     tests = [t.model_copy(update={"record_s": m.record_s, "averages": m.averages,
                                   "window": m.window})
              for t, m in zip(spec.tests, draw.measurement, strict=True)]
-    tspec = spec.model_copy(update={"plant": spec.plant.model_copy(update=plant_update),
-                                    "tests": tests})
+    tspec = _study_spec(spec, r if other else 1).model_copy(update={"tests": tests})
     plant = tspec.make_plant()
     params = spec.truth_parameters()
     x = plant.node_x_m(nominal)

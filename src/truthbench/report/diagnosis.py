@@ -174,7 +174,7 @@ def write_study(result, out_dir: str | Path) -> Path:
     pathlib.Path
         The HTML file.
     """
-    from truthbench.campaign.diagnose_study import SIZE_TOLERANCE, TARGETS
+    from truthbench.campaign.diagnose_study import REFINE, SIZE_TOLERANCE, TARGETS
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -182,13 +182,14 @@ def write_study(result, out_dir: str | Path) -> Path:
     fig = _save(result.plot(), out / "detection.png")
     summary = result.to_pandas("summary").set_index("form")
     forms = list(summary.index)
+    refine = ", ".join(map(str, REFINE[:-1])) + f" or {REFINE[-1]}"
     lines = [f"# truthbench diagnose-study: {result.campaign}", "",
              f"- {int(summary['trials'].iloc[0])} trials, seed {result.seed}; each injects "
              f"none, one or two effects at random strengths and places, simulates the "
              f"campaign's tests, diagnoses them against the nominal model and scores what "
              f"was found.",
-             f"- Truth forms: {', '.join(forms)}, on the same draws. "
-             + _FORM_TEXT["other"] * ("other" in forms) + _FORM_TEXT["same"] * ("same" in forms),
+             " ".join([f"- Truth forms: {', '.join(forms)}, on the same draws.",
+                       *(_FORM_TEXT[f].format(refine=refine) for f in forms)]),
              f"- A right finding's size is right within {pct(100 * SIZE_TOLERANCE, 0)} % "
              f"of the injected size, measured in a unit that does not depend on the model "
              f"form (a joint by its equivalent rotational stiffness); located: within one "
@@ -232,13 +233,13 @@ def write_study(result, out_dir: str | Path) -> Path:
 
 
 _FORM_TEXT = {
-    "other": "The other form's truth is not the model's: a mesh 3, 4 or 6 times finer, "
+    "other": "The other form's truth is not the model's: a mesh {refine} times finer, "
              "shear deformation and rotary inertia drawn on or off (then `element_physics` "
              "is a right finding, not a false alarm), each effect at a node of the fine "
              "mesh, sensors and shakers mounted off the axis (torsion and lateral motion "
-             "in the data). ",
+             "in the data).",
     "same": "The same form's truth is the model's own plant, mesh and elements, each "
-            "effect at the model node nearest the other form's place. ",
+            "effect at the model node nearest the other form's place.",
 }
 
 _SCORES = (("nothing found on clean", "clean trials"),
