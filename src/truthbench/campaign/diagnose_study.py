@@ -105,20 +105,6 @@ TARGETS = {"nothing found on clean": 0.95, "right effect first": 0.90,
            "exactly the injected": 0.85, "both found": 0.85, "sizes within 10 %": 0.80}
 """The scores the other-form study should reach (issue 17)."""
 
-SIZES = {
-    "joint": ("rotational stiffness", "N m/rad"),
-    "boundary": ("suspension stiffness ratio", "-"),
-    "channel_gain": ("gain error", "-"),
-    "sensor_bias": ("gain error", "-"),
-    "added_mass": ("mass", "kg"), "sensor_mass": ("mass", "kg"),
-    "grounded_spring": ("stiffness", "N/m"), "grounded_dashpot": ("damping", "N s/m"),
-    "time_delay": ("delay", "s"), "actuator_dynamics": ("corner frequency", "Hz"),
-    "sensor_dynamics": ("natural frequency", "Hz"), "element_physics": ("scale", "-"),
-    "sag": ("scale", "-"), "coulomb_friction": ("friction force", "N"),
-}
-"""Effect -> (its size, unit): what a right finding's size is compared by, a measure
-that does not depend on the model form (:func:`effect_size`)."""
-
 _BENDING = {"z": "ry", "y": "rz"}
 
 
@@ -168,18 +154,20 @@ def element_bending(plant, params, node: int, direction: str) -> tuple[float, fl
 
 
 def effect_size(effect: str, values, bending: tuple[float, float] | None = None) -> float:
-    """The size of an effect in a measure that does not depend on the model form
-    (:data:`SIZES`): mass kg, spring N/m, dashpot N s/m, delay s, gain error, corner or
-    natural frequency Hz, the suspension stiffness over the model's (``1 +
-    stiffness_rel``), and for a joint its rotational stiffness (:func:`joint_stiffness`
-    of ``bending = (EI, h)``, its element's)."""
+    """The size of an effect in a measure that does not depend on the model form.
+
+    Its strength parameter (:data:`DEFAULT_STRENGTH`, else its first): mass kg, spring
+    N/m, dashpot N s/m, delay s, gain error, corner or natural frequency Hz, scale; for
+    ``boundary`` the suspension stiffness over the model's (``1 + stiffness_rel``); for
+    a joint its rotational stiffness, N m/rad (:func:`joint_stiffness` of ``bending =
+    (EI, h)``, its element's).
+    """
     if effect == "joint":
         return joint_stiffness(*bending, values["stiffness_loss"])
     if effect == "boundary":
         return 1.0 + values["stiffness_rel"]
-    name = DEFAULT_STRENGTH.get(effect, (EFFECTS[effect].params[0].name,))[0]
-    if effect == "coulomb_friction":
-        name = "force_n"
+    name = DEFAULT_STRENGTH[effect][0] if effect in DEFAULT_STRENGTH \
+        else EFFECTS[effect].params[0].name
     return float(values[name])
 
 
