@@ -16,6 +16,7 @@ import scipy.linalg as sl
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
+from truthbench.campaign.plan import CampaignPlan
 from truthbench.campaign.spec import parse_campaign
 from truthbench.campaign.truth import build_hardware
 from truthbench.effects import parse_effect
@@ -207,7 +208,8 @@ def test_campaign_with_a_station_between_nodes(base):
                                 {"name": "grounded_spring", "station": "odd",
                                  "parameters": {"stiffness_n_m": 100.0}}]
     spec = parse_campaign(base)
-    additions = build_hardware(spec, 0, 0, spec.campaign.seed).additions
+    plan = CampaignPlan.compile(spec)
+    additions = build_hardware(plan, plan.tests[0], 0, spec.campaign.seed).additions
     assert [p[0] for p in additions.points] == ["mass"] * 3 + ["spring"]
     between = "lies between nodes 2 and 3 of the 8-element mesh"
     for key, edit in (

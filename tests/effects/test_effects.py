@@ -460,6 +460,108 @@ def test_channel_gain_scales_one_output_row_of_the_frf(base):
     np.testing.assert_array_equal(_hardware(_spec(base, eff), 0, 0, 1).frf(f), ref)
 
 
+MOUNT_PLANT = make_plant("free_free_beam", n_elements=8)
+MOUNT_PARAMS = MOUNT_PLANT.resolve({"modal_damping_ratio": 0.01})
+MOUNT_FREQ = np.linspace(3.0, 1200.0, 400)  # through the first torsion mode (~870 Hz)
+
+
+def _mounted(effects, actuators, sensors):
+    from truthbench.effects import realise
+
+    return realise(MOUNT_PLANT, MOUNT_PARAMS, [parse_effect(e, "test") for e in effects],
+                   actuators=actuators, sensors=sensors)
+
+
+def test_sensor_mounting_reads_offset_times_torsion_and_cross_axis_motion():
+    """A vertical accelerometer e off the axis (along y) on a beam twisted by a torque
+    reads e times the torsional acceleration (w_P = w + theta_x e); with cross-axis
+    sensitivity c it also reads c times the lateral acceleration. Against the same
+    beam's own z, rx and y outputs: the difference is exact up to round-off."""
+    COVERED.add("sensor_mounting")
+    e, c = 0.003, 0.02
+    sensors = (Sensor("mid", "z"), Sensor("mid", "z"), Sensor("mid", "rx"), Sensor("mid", "y"))
+    mount = {"name": "sensor_mounting", "sensor": 0,
+             "parameters": {"offset_m": e, "cross_axis": c}}
+    for drive in ("rx", "y"):  # pure torsion; pure lateral bending
+        H = _mounted([mount], (Actuator("end_a", drive),), sensors).frf(MOUNT_FREQ)[..., 0]
+        expected = e * H[:, 2] + c * H[:, 3]
+        scale = np.abs(expected).max()
+        assert scale > 0
+        np.testing.assert_allclose(H[:, 0] - H[:, 1], expected, rtol=0, atol=1e-12 * scale)
+    # a label the test lacks leaves it alone; the mounted sensor alone reads torsion
+    plain = _mounted([], (Actuator("end_a", "rx"),), sensors[2:3]).frf(MOUNT_FREQ)
+    absent = {**mount, "sensor": "tip.z.acc"}
+    H = _mounted([absent], (Actuator("end_a", "rx"),), sensors[:1]).frf(MOUNT_FREQ)
+    assert np.abs(H).max() < 1e-9 * e * np.abs(plain).max()
+
+
+def test_shaker_mounting_adds_a_torque_and_a_lateral_force():
+    """A vertical shaker tilted by a towards y, its force line e off the axis: the
+    recorded force F acts as F cos(a) in z, F sin(a) in y and the torque e F cos(a)
+    about x (the input column of the model, and the FRF as the superposition of the
+    three plain inputs)."""
+    COVERED.add("shaker_mounting")
+    e, a_deg = -0.002, 2.5
+    a = np.deg2rad(a_deg)
+    mount = {"name": "shaker_mounting", "actuator": "end_a.z",
+             "parameters": {"offset_m": e, "misalignment_deg": a_deg}}
+    sensors = (Sensor("quarter", "z"), Sensor("quarter", "y"), Sensor("end_b", "rx"))
+    hw = _mounted([mount], (Actuator("end_a", "z"),), sensors)
+    labels = hw.model.dof_labels
+    column = dict(zip(labels, hw.model.B[:, 0], strict=True))
+    assert {k: v for k, v in column.items() if v != 0} == pytest.approx(
+        {"n0.z": np.cos(a), "n0.y": np.sin(a), "n0.rx": e * np.cos(a)}, rel=1e-15)
+    plain = _mounted([], (Actuator("end_a", "z"), Actuator("end_a", "y"),
+                          Actuator("end_a", "rx")), sensors).frf(MOUNT_FREQ)
+    expected = plain @ np.array([np.cos(a), np.sin(a), e * np.cos(a)])
+    H = hw.frf(MOUNT_FREQ)[..., 0]
+    np.testing.assert_allclose(H, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+
+
+def test_mountings_on_the_time_and_nonlinear_paths():
+    """The time-stepped path with a nonlinear element sees the mounted channels: a
+    mounted shaker and sensor give what the unmounted beam gives for the shaker's three
+    force components and the sensor's three readings combined (same drive, so the same
+    nonlinear motion, up to the solver's round-off)."""
+    e_s, c, e_a, a_deg = 0.003, 0.02, 0.002, 2.0
+    a = np.deg2rad(a_deg)
+    cubic = {"name": "cubic_stiffness", "station": "mid", "direction": "z",
+             "parameters": {"k3_n_m3": 1e9}}
+    mounts = [{"name": "sensor_mounting", "sensor": 0,
+               "parameters": {"offset_m": e_s, "cross_axis": c}},
+              {"name": "shaker_mounting", "actuator": 0,
+               "parameters": {"offset_m": e_a, "misalignment_deg": a_deg}}]
+    fs, n = 1024.0, 2048
+    t = np.arange(n) / fs
+    u = 3.0 * (np.sin(2 * np.pi * 47.0 * t) + np.sin(2 * np.pi * 250.0 * t))[None, :]
+    sim = dict(method="time", oversample=4)
+    mounted = _mounted([cubic, *mounts], (Actuator("end_a", "z"),), (Sensor("quarter", "z"),))
+    y = mounted.simulate(u, fs, **sim)[0]
+    plain = _mounted([cubic], (Actuator("end_a", "z"), Actuator("end_a", "y"),
+                               Actuator("end_a", "rx")),
+                     (Sensor("quarter", "z"), Sensor("quarter", "rx"), Sensor("quarter", "y")))
+    parts = plain.simulate(np.array([np.cos(a), np.sin(a), e_a * np.cos(a)])[:, None] * u,
+                           fs, **sim)
+    expected = parts[0] + e_s * parts[1] + c * parts[2]
+    assert np.abs(y - expected).max() < 1e-9 * np.abs(expected).max()
+    # and the mountings are there: the unmounted reading differs
+    assert np.abs(y - parts[0]).max() > 1e-3 * np.abs(expected).max()
+
+
+@pytest.mark.parametrize("entry, sensors, match", [
+    ({"name": "sensor_mounting", "sensor": 3}, (Sensor("mid", "z"),), "sensor 3 does not"),
+    ({"name": "sensor_mounting", "sensor": 0}, (Sensor("mid", "rx"),), "translational"),
+    ({"name": "sensor_mounting", "sensor": 0}, (Sensor("mid", "z", "strain"),), "strain"),
+    ({"name": "shaker_mounting", "actuator": 1}, (Sensor("mid", "z"),), "actuator 1 does"),
+])
+def test_mounting_bad_channels(entry, sensors, match):
+    from truthbench.errors import ModelError
+
+    entry = {**entry, "parameters": {"offset_m": 0.001}}
+    with pytest.raises(ModelError, match=match):
+        _mounted([entry], (Actuator("end_a", "z"),), sensors)
+
+
 def test_every_registered_effect_is_tested():
     # runs last in this file (pytest keeps file order)
     assert set(EFFECTS) <= COVERED, sorted(set(EFFECTS) - COVERED)

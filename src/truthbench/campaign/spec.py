@@ -433,6 +433,11 @@ class StudySpec(_Strict):
     clean_fraction: Annotated[float, Field(ge=0, le=1)] = 0.2
     two_fraction: Annotated[float, Field(ge=0, le=1)] = 0.2
     trials: Annotated[int, Field(ge=1)] = 20
+    form: Literal["other", "same", "both"] = "both"
+    """The truth's model form: "other" (a finer mesh, shear and rotary inertia drawn on
+    or off, effects anywhere along the article, sensors and shakers mounted off the
+    axis), "same" (the model's own plant, mesh and elements, effects on its nodes) or
+    "both", scored side by side on the same draws."""
 
 
 class ChannelPlace(_Strict):

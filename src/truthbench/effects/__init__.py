@@ -11,6 +11,7 @@ from truthbench.effects import (  # noqa: F401  (registration)
     attachments,
     loop,
     measurement,
+    mounting,
     nonlinear,
     structural,
 )

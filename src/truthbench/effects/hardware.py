@@ -44,6 +44,7 @@ from functools import cached_property
 import numpy as np
 
 from truthbench.errors import ModelError
+from truthbench.fe.assembly import DIRECTIONS
 from truthbench.model import StructuralModel, modal_system
 from truthbench.plants.base import Actuator, Plant, Sensor, StructuralAdditions
 from truthbench.simulate import add_sensor_noise, band_limited_random, simulate_lti
@@ -154,6 +155,11 @@ class Hardware:
         Joints, lumped masses and dashpots, element stiffness loss, sag angles.
     input_filters, output_filters : tuple of Filter
         Actuator and sensor dynamics (indices into ``actuators`` / ``sensors``).
+    output_terms, input_terms : tuple of (channel, direction, weight)
+        Further DOFs a channel reads or drives at its own station, with weights (m/rad
+        for a rotation read by a translation sensor, m for a moment from a force): a
+        sensor's output row and an actuator's input column are their unit DOF plus
+        these (:mod:`truthbench.effects.mounting`).
     delay_s : float
         Time delay between the recorded inputs and the recorded outputs, s.
     noise_fraction : float
@@ -178,6 +184,8 @@ class Hardware:
     additions: StructuralAdditions = StructuralAdditions()
     input_filters: tuple[Filter, ...] = ()
     output_filters: tuple[Filter, ...] = ()
+    output_terms: tuple[tuple[int, str, float], ...] = ()
+    input_terms: tuple[tuple[int, str, float], ...] = ()
     delay_s: float = 0.0
     noise_fraction: float = 0.0
     bias_offset: float = 0.0
@@ -201,6 +209,12 @@ class Hardware:
                 if flt.index is not None and not 0 <= flt.index < n:
                     raise ModelError(f"{side} dynamics on channel {flt.index}: the test has "
                                      f"{n} {side}s")
+        for side, terms, n in (("actuator", self.input_terms, n_in),
+                               ("sensor", self.output_terms, n_out)):
+            for k, direction, _ in terms:
+                if not 0 <= k < n or direction not in DIRECTIONS:
+                    raise ModelError(f"{side} term ({k}, {direction!r}): expected a channel "
+                                     f"0..{n - 1} and a direction of {DIRECTIONS}")
         if self.loops and self.nonlinear:
             raise ModelError("a closed loop together with a nonlinear effect is not "
                              "supported yet; remove one of them")
@@ -213,9 +227,28 @@ class Hardware:
 
     @cached_property
     def model(self) -> StructuralModel:
-        """The structural model: inputs = actuators then disturbers, outputs = sensors."""
-        return self.plant.build(self.parameters, self.actuators + self.disturbers,
-                                self.sensors, self.additions)
+        """The structural model: inputs = actuators then disturbers, outputs = sensors
+        (with the channels' further weighted DOFs, :attr:`output_terms` and
+        :attr:`input_terms`)."""
+        model = self.plant.build(self.parameters, self.actuators + self.disturbers,
+                                 self.sensors, self.additions)
+        if not (self.output_terms or self.input_terms):
+            return model
+        labels = {label: i for i, label in enumerate(model.dof_labels)}
+
+        def dof(channel, direction):
+            label = f"n{self.plant.station_node(channel.station)}.{direction}"
+            if label not in labels:
+                raise ModelError(f"channel {channel.label!r} reads or drives {direction!r} "
+                                 f"at its station, which is clamped in {self.plant.kind}")
+            return labels[label]
+
+        B, C = model.B.copy(), model.C_out.copy()
+        for k, direction, weight in self.input_terms:
+            B[dof(self.actuators[k], direction), k] += weight
+        for k, direction, weight in self.output_terms:
+            C[k, dof(self.sensors[k], direction)] += weight
+        return replace(model, B=B, C_out=C)
 
     @cached_property
     def modes(self):

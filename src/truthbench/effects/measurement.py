@@ -12,7 +12,7 @@ from truthbench.effects.base import (
     register_effect,
 )
 from truthbench.effects.hardware import Filter
-from truthbench.errors import ModelError
+from truthbench.effects.mounting import channel_index
 
 
 @register_effect
@@ -62,17 +62,10 @@ class ChannelGain(Effect):
                                       location="sensor")
 
     def contribute(self, values, options, setup):
-        which = options["sensor"]
-        if isinstance(which, str) and not which.lstrip("-").isdigit():
-            labels = [s.label for s in setup.sensors]
-            if which not in labels:
-                return  # that sensor is not in this test
-            k = labels.index(which)
-        else:
-            k = int(which)
-            if not 0 <= k < len(setup.sensors):
-                raise ModelError(f"effect 'channel_gain': sensor {k} does not exist; the "
-                                 f"test has sensors 0..{len(setup.sensors) - 1}")
+        k = channel_index(options["sensor"], [s.label for s in setup.sensors], self.name,
+                          "sensor")
+        if k is None:
+            return  # that sensor is not in this test
         if values["gain_error"] != 0:
             setup.output_filters.append(Filter((1.0 + values["gain_error"],), (1.0,), k))
 

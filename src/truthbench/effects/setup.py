@@ -33,6 +33,8 @@ class SetupBuilder:
     gravity_m_s2: float = 9.80665
     input_filters: list = field(default_factory=list)
     output_filters: list = field(default_factory=list)
+    output_terms: list = field(default_factory=list)
+    input_terms: list = field(default_factory=list)
     delay_s: float = 0.0
     noise_fraction: float = 0.0
     bias_offset: float = 0.0
@@ -87,6 +89,7 @@ class SetupBuilder:
             plant=self.plant, parameters=dict(self.parameters), actuators=self.actuators,
             sensors=self.sensors, additions=additions,
             input_filters=tuple(self.input_filters), output_filters=tuple(self.output_filters),
+            output_terms=tuple(self.output_terms), input_terms=tuple(self.input_terms),
             delay_s=self.delay_s, noise_fraction=self.noise_fraction,
             bias_offset=self.bias_offset, bias_gain=self.bias_gain,
             disturbances=tuple(self.disturbances), nonlinear=tuple(self.nonlinear),
