@@ -11,9 +11,16 @@ output channel) and its fitted parameters free, as an
 ``sensor``
     every output channel of every test (index into the test's sensors; the channels of
     the tests are the same physical sensors when their labels agree);
+``support``
+    all supports together and, when there are several, each one (``boundary``);
 directions
     ``translation``: every translational direction the data measure; ``bending``: the
     bending rotation of every measured transverse direction (z -> ry, y -> rz).
+
+Where the article touches ground is the model's to say: with ``[plant] supports``
+declared, grounded springs and dashpots are tried only at the supports ("springs",
+"foam") or nowhere ("none"); a spring at a suspension point in its own direction is the
+support's stiffness, tried as ``boundary`` (which can also soften it).
 
 The natural size of each fitted parameter (its FD step and trust region) is a fraction
 of a model reference (:func:`references`).
@@ -33,6 +40,10 @@ from truthbench.plants.base import Plant
 from truthbench.update.predictor import EffectTerm
 
 _BENDING = {"z": "ry", "y": "rz"}
+
+GROUNDING = ("grounded_spring", "grounded_dashpot")
+"""Effects that reach ground: tried only where the article touches it when the model
+declares its supports (``[plant] supports``), and nowhere for ``supports = "none"``."""
 
 
 @dataclass(frozen=True)
@@ -111,9 +122,10 @@ def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,
     squared reference angular frequency (N/m); ``damping``: ``2 omega_ref mass``
     (N s/m; 1 % of it damps the first mode by about 1 %); ``rotary_damping``: damping
     times the squared element length (N m s/rad); ``time``: ``1 / (2 pi f_max)`` (s);
-    ``unit``: 1. ``f_ref_hz`` defaults to the lowest elastic mode at or above
-    ``f_min_hz`` (the compared band's low edge: a suspension mode below the band would
-    make the sizes of structural springs and dashpots far too small).
+    ``time_squared``: its square (s^2); ``unit``: 1. ``f_ref_hz`` defaults to the lowest
+    elastic mode at or above ``f_min_hz`` (the compared band's low edge: a suspension
+    mode below the band would make the sizes of structural springs and dashpots far too
+    small).
     """
     model = plant.build(nominal)
     labels = model.dof_labels
@@ -128,8 +140,9 @@ def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,
         f_ref_hz = float(elastic[0]) if elastic.size else f_max_hz
     w = 2 * np.pi * f_ref_hz
     h = float(np.mean(np.diff(plant.node_x_m(nominal))))
+    time = 1.0 / (2 * np.pi * f_max_hz)
     return {"mass": mass, "stiffness": mass * w * w, "damping": 2 * w * mass,
-            "rotary_damping": 2 * w * mass * h * h, "time": 1.0 / (2 * np.pi * f_max_hz),
+            "rotary_damping": 2 * w * mass * h * h, "time": time, "time_squared": time**2,
             "unit": 1.0}
 
 
@@ -175,12 +188,18 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
     nodes = range(plant.n_elements + 1)
     free = {k: _free_directions(plant, nominal, k) for k in nodes}
     sensors = list(dict.fromkeys(s.label for t in tests for s in t.sensors))
+    suspended = "suspension_stiffness_n_m" in plant.parameters
+    touching = set(plant.support_nodes())
+    supports = getattr(plant, "supports", None)
     out = []
     for name in names:
         cls = diagnosable[name]
         form = cls.diagnosis
-        if name == "boundary" and "suspension_stiffness_n_m" not in plant.parameters:
+        if name == "boundary" and not suspended:
             continue  # no suspension to be wrong
+        grounding = name in GROUNDING
+        if grounding and supports == "none":
+            continue  # nothing touches the article: no path to ground
         if form.directions == "translation":
             dirs = translations
         elif form.directions == "measured":
@@ -198,6 +217,11 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
                         continue
                     if d is None and not free[k] & {"x", "y", "z"}:
                         continue
+                    if grounding and supports is not None and k not in touching:
+                        continue  # declared supports: ground is reached only there
+                    if (name == "grounded_spring" and suspended and d == "z"
+                            and k in touching and "boundary" in names):
+                        continue  # the support's own spring: boundary@support (either way)
                     opts = {"station": f"n{k}"}
                     label = f"{name}@n{k}"
                     if d is not None:
@@ -207,6 +231,12 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
         elif form.location == "sensor":
             for lab in sensors:
                 out.append(Candidate(name, {"sensor": lab}, f"{name}@{lab}", form.fitted))
+        elif form.location == "support":
+            out.append(Candidate(name, {}, name, form.fitted))
+            if len(touching) > 1:
+                for k in range(len(plant.support_nodes())):
+                    out.append(Candidate(name, {"support": k}, f"{name}@support{k}",
+                                         form.fitted))
         else:
             out.append(Candidate(name, {}, name, form.fitted))
     return out

@@ -3,19 +3,18 @@
 1. **Baseline.** The channels are placed on the model (:func:`~.data.prepare`) and the
    parameters the user declared (``[update] parameters``) are fitted: the best the model
    can do as declared.
-2. **Residual.** Every view of data against the baseline (:mod:`.residual`).
+2. **Adequacy** (:mod:`.adequacy`). Before any effect is tried: is the mesh fine enough
+   for these data (else it is refined, or said to be too coarse), and does the data show
+   a mode the model cannot show at these channels (named, and its lines left out)?
 3. **Candidates.** Every effect of the registry that declares a diagnosis form, at every
-   location it can have (:mod:`.candidates`), is screened by the Lagrange-multiplier
-   test of adding it to the current fit (:func:`~.fit.score`); the ``refits`` best, and
-   the best location of every other effect screened within a factor 2 of the best, are
-   refitted (quick: forward differences, capped iterations) with the declared
-   parameters and the effects already found, and so are the locations within two nodes
-   of the best located one (a first-order score can rank a mirror image or a neighbour
-   first when the change is large). When not even the best first-order drop could be
-   significant, nothing is refitted.
-4. **Selection.** Each refit is scored by the Bayesian information criterion with the
-   noise scale profiled out (the weights ``1 / sigma`` fix the relative noise of every
-   value, the common scale is estimated),
+   location it can have (:mod:`.candidates`), is screened against the current fit
+   (:func:`~.search.screen`); the best, and the best location of every other effect
+   screened within a factor of the best, are refitted (quick) with the declared
+   parameters and the effects already found; the best few refits are completed, each
+   compared through the estimator at its own model.
+4. **Selection** (stepwise, with backward elimination). Each refit is scored by the
+   Bayesian information criterion with the noise scale profiled out (the weights
+   ``1 / sigma`` fix the relative noise of every value, the common scale is estimated),
 
        delta_BIC = n ln(chi2_current / chi2_candidate) - k ln(n),
 
@@ -23,11 +22,19 @@
    lines per value, 1.8 for a Bartlett window) and k the candidate's parameters. The
    best candidate with a physical fit (inside its bounds, up to a slack) and ``delta_BIC
    > threshold + 2 ln M`` (M the candidates tried: the best of M noise-only drops is
-   about 2 ln M) is added; the search repeats until none is (forward selection), or
-   ``max_effects`` are found. Data at the noise level find nothing.
-5. **After.** The residual views of the final model; the found effects with their
-   fitted values, standard deviations (from the Jacobian, scaled by the residual) and
-   location.
+   about 2 ln M) is added; a point attachment's position is then searched between the
+   nodes next to it. After each addition every earlier effect is tested again (the
+   model refitted without it) and dropped when it is no longer significant: a first
+   finding that a later one explains better (a joint standing in for a mass between two
+   nodes) does not stay. The search repeats until nothing is added or ``max_effects``
+   are in the model. Data at the noise level find nothing.
+5. **Verdict** (:mod:`.verdict`). When the runner-up of a step explains the data within
+   ``ambiguity_margin`` of delta BIC, the finding is "A or B" with both fits, and the
+   sensor and excitation point that would tell them apart are named.
+6. **After.** The residual views of the final model; the found effects with their
+   fitted values and standard deviations (column-scaled Jacobian, noise scale from the
+   residual, correlated lines counted), stated only when the final residual is at the
+   noise level (:attr:`Diagnosis.uncertainty_holds`).
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from truthbench.diagnose import adequacy
 from truthbench.diagnose.candidates import (
     Candidate,
     bind_levels,
@@ -50,21 +58,31 @@ from truthbench.diagnose.data import MeasuredTest, prepare
 from truthbench.diagnose.fit import (
     Fit,
     Problem,
-    candidate_columns,
     evaluate,
     fit,
     fit_magnitude,
     refit_error,
-    score,
+    with_offsets,
 )
-from truthbench.diagnose.residual import (
-    ModeResidual,
-    Residual,
-    matched_delay,
-    mpc,
-    residual_views,
+from truthbench.diagnose.residual import ModeResidual, Residual, mpc, residual_views
+from truthbench.diagnose.screen import POINT_EFFECTS, position_profile
+from truthbench.diagnose.search import (
+    PHASE_EFFECTS,
+    REFIT_ERRORS,
+    Refit,
+    Tried,
+    adapted,
+    data_delay,
+    delta_bic,
+    fitted_own,
+    full_refit,
+    refit,
+    screen,
+    shortlist,
+    signature_start,
+    terms_of,
 )
-from truthbench.diagnose.screen import point_profiles
+from truthbench.diagnose.verdict import Alternative, Measurement, ambiguous, measurements
 from truthbench.errors import IdentifiabilityError, ModelError
 from truthbench.measure.frfdata import FRFData
 from truthbench.measure.leakage import Estimator
@@ -83,19 +101,22 @@ class DiagnoseSettings:
     channel_map: Mapping[str, Mapping] = field(default_factory=dict)
     max_effects: int = 2
     threshold: float = 10.0
-    refits: int = 6
+    refits: int = 4
+    ambiguity_margin: float = 10.0
     estimator: bool = True
     window: str | None = None
     fs_hz: float | None = None
     averages: int | None = None
     identify_modes: bool = True
+    mesh_tolerance: float = adequacy.MESH_TOLERANCE
+    max_refinement: int = adequacy.MAX_REFINEMENT
     max_iterations: int = 30
     tolerance: float = 1e-6
 
 
 @dataclass(frozen=True)
 class Found:
-    """An effect the diagnosis added.
+    """An effect the diagnosis added and kept.
 
     Attributes
     ----------
@@ -104,13 +125,23 @@ class Found:
     options : dict
         Its location (station, direction, sensor).
     parameters : dict
-        The effect's own parameter values at the fit.
+        The effect's own parameter values at the final fit.
     fitted : dict
-        The fitted parameters (own names) and their standard deviations ``std``.
+        The fitted parameters (own names) at the final fit.
     std : dict
+        Their standard deviations (NaN where a combination is not determined).
     delta_bic : float
+        The evidence for it in the final model: the model refitted without it against
+        the final model.
     node : int or None
+        The model node nearest to it (located effects).
     label : str
+    x_m : float or None
+        Its position along the beam, m (located effects; between nodes for a point
+        attachment whose position was searched).
+    alternatives : tuple of Alternative
+        Effects that explained the data within the ambiguity margin when it was found:
+        the verdict is then "this or those".
     """
 
     effect: str
@@ -121,59 +152,12 @@ class Found:
     delta_bic: float
     node: int | None
     label: str
+    x_m: float | None = None
+    alternatives: tuple[Alternative, ...] = ()
 
-
-@dataclass(frozen=True)
-class Tried:
-    """A candidate tried at one step: screened, refitted, scored."""
-
-    step: int
-    label: str
-    effect: str
-    options: dict
-    screen_drop: float
-    delta_bic: float = float("nan")
-    fitted: dict = field(default_factory=dict)
-    parameters: dict = field(default_factory=dict)
-    status: str = "screened"
-
-
-BOUND_SLACK = 0.05
-"""A fitted value may cross its physical bound by this fraction of its natural size (or
-two standard deviations, if more) and still count as at the bound: a fit of an effect
-whose true value sits on the bound (a joint without damping) lands on either side."""
-
-
-def _bounds_ok(cand: Candidate, values: Mapping[str, float], std: Mapping[str, float],
-               sizes: Mapping[str, float]) -> str | None:
-    """None if every fitted value is within its physical bounds (up to the slack), else
-    why not."""
-    for p in cand.fitted:
-        key = f"{cand.label}.{p.name}"
-        v = values[key]
-        slack = max(2 * std.get(key, 0.0), BOUND_SLACK * sizes[key])
-        if p.minimum is not None and v < p.minimum - slack:
-            return f"unphysical: {p.name} = {v:.4g} below {p.minimum:g}"
-        if p.maximum is not None and v > p.maximum + slack:
-            return f"unphysical: {p.name} = {v:.4g} above {p.maximum:g}"
-    return None
-
-
-def _with_offsets(problem: Problem, current: Fit) -> Problem:
-    """The problem with the estimator's leakage offset at ``current``'s parameters."""
-    if not any(t.kernel is not None for t in problem.tests):
-        return problem
-    pred = problem.predictor(current.terms)
-    exact = pred.predict_vector(current.theta)
-    seen = pred.predict_vector(current.theta, estimator=True)
-    return replace(problem, offsets=seen - exact)
-
-
-def _bandwidth_lines(kernel) -> float:
-    """Lines per independent value of a windowed estimate (1 rectangular, about 1.3
-    Bartlett and Hann: :attr:`~truthbench.measure.leakage.LeakageKernel.
-    correlation_lines`); 1 when the estimator is unknown."""
-    return 1.0 if kernel is None else kernel.correlation_lines
+    @property
+    def ambiguous(self) -> bool:
+        return bool(self.alternatives)
 
 
 def _kernel(frf: FRFData, settings: DiagnoseSettings):
@@ -209,7 +193,8 @@ def _modes(tests, problem: Problem, fit_: Fit, data_modes) -> tuple[ModeResidual
     for t, ident in zip(tests, data_modes, strict=True):
         if ident is None or ident.n_modes == 0:
             continue
-        hw = problem.predictor(fit_.terms).hardware(fit_.theta, t.actuators, t.sensors)
+        hw = problem.predictor(fit_.terms).hardware(fit_.theta, t.actuators, t.sensors,
+                                                    test=t.name)
         model, modes = hw.model, hw.modes
         rows = modal_table(model, modes)
         f = np.array([r["freq_hz"] for r in rows])
@@ -272,11 +257,16 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
         Or its fields as keyword arguments: ``candidates`` (registry names to try; default
         all), ``band_hz``, ``tolerance_m``, ``point_map`` and ``channel_map`` (placing
         the channels: :func:`~truthbench.diagnose.data.prepare`),
-        ``max_effects``, ``threshold`` (delta BIC), ``refits``, ``estimator``
-        (compare through the data's leakage when known), ``window`` and ``fs_hz`` (the
-        segment window of data from other tools, whose files do not say, and their
-        sampling rate), ``averages`` (their number of averages, which with the coherence
-        sets the noise weights; the data's own when they state it), ``identify_modes``.
+        ``max_effects`` (most effects in the final model), ``threshold`` (delta BIC),
+        ``refits`` (the best screened candidates refitted at each step, besides the best
+        location of every other effect), ``ambiguity_margin`` (delta BIC within which a
+        runner-up makes the verdict "A or B"), ``estimator`` (compare through the data's
+        leakage when known), ``window`` and ``fs_hz`` (the segment window of data from
+        other tools, whose files do not say, and their sampling rate), ``averages``
+        (their number of averages, which with the coherence sets the noise weights; the
+        data's own when they state it), ``identify_modes`` (identify the data's modes:
+        the check for modes the model lacks and the paired-mode views),
+        ``mesh_tolerance`` and ``max_refinement`` (the mesh check: :mod:`.adequacy`).
 
     Returns
     -------
@@ -299,325 +289,448 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
                      for d in data)
     # small dense matrices: BLAS threads only add overhead (as in the campaign's trials)
     with threadpool_limits(limits=1, user_api="blas"):
-        return _diagnose(data, plant, nominal, parameters, settings)
+        return _Diagnosis(data, plant, nominal, parameters, settings).run()
 
 
-def _diagnose(data, plant, nominal, parameters, settings):
-    from truthbench.diagnose.result import Diagnosis
+def _renamed_station(options: Mapping, renamed: Mapping[str, str]) -> dict:
+    st = options.get("station")
+    return dict(options) if st is None else {**options, "station": renamed.get(st, st)}
 
-    nominal = plant.resolve(nominal)
-    declared = tuple(parameters)
-    known = set(plant.parameter_names()) | set(APPENDED_PARAMETERS)
-    bad = [p for p in declared if p not in known]
-    if bad:
-        raise ModelError(f"parameters {bad} are neither plant parameters of {plant.kind} nor "
-                         f"{sorted(APPENDED_PARAMETERS)}")
-    placed, tests = prepare(data, plant, nominal, band_hz=settings.band_hz,
-                            tolerance_m=settings.tolerance_m, point_map=settings.point_map,
-                            channel_map=settings.channel_map)
-    model_plant = with_node_stations(placed)
-    ptests = tuple(PredictedTest(
-        t.name, t.freq_hz, t.actuators, t.sensors, decay_rad_s=t.frf.window_decay_rad_s,
-        kernel=_kernel(t.frf, settings),
-        band_hz=t.frf.band_hz) for t in tests)
-    values = np.concatenate([t.H.ravel() for t in tests])
-    weights = np.concatenate([1.0 / t.sigma.ravel() for t in tests])
-    if 2 * values.size <= len(declared) + 1:
-        raise IdentifiabilityError(
-            f"{2 * values.size} real data values (lines x outputs x inputs x 2) cannot "
-            f"determine {len(declared)} declared parameters and a candidate; widen the band "
-            f"or add data")
-    f_max = max(float(t.freq_hz.max()) for t in tests)
-    refs = references(model_plant, nominal, f_max,
-                      f_min_hz=min(float(t.freq_hz.min()) for t in tests))
-    levels = [r for t in tests if t.frf.input_rms is not None for r in t.frf.input_rms]
-    refs["force"] = float(np.mean(levels)) if levels else 1.0
-    problem = Problem(model_plant, dict(nominal), ptests, values, weights, declared,
-                      {k: refs["time"] for k in declared if k == "delay_s"},
-                      None,
-                      {"max_iterations": settings.max_iterations,
-                       "tolerance": settings.tolerance})
-    structural = fit_magnitude(problem)
-    current = fit(problem, start=structural)
-    problem = _with_offsets(problem, current)
-    current = fit(problem, start=current.theta)
-    baseline = current
-    # the phase signatures are read against the magnitude fit, which a phase error does
-    # not distort (the complex fit may bend the structure to mimic part of it)
-    signature_fit = evaluate(problem, (), declared, structural)
-    tried: list[Tried] = []
-    thresholds: list[float] = []
-    found: list[Found] = []
-    accepted: list[Candidate] = []
-    cands = catalogue(model_plant, nominal, tests, names=settings.candidates)
-    # the information criterion counts independent values: lines of a windowed estimate
-    # are correlated over the window's noise bandwidth (in lines), so n is divided by it
-    n = problem.n / max((_bandwidth_lines(pt.kernel) for pt in ptests), default=1.0)
-    for step in range(settings.max_effects):
+
+def _renamed_label(label: str, options: Mapping, renamed: Mapping[str, str]) -> str:
+    st = options.get("station")
+    if st is None or st not in renamed:
+        return label
+    return label.replace(f"@{st}", f"@{renamed[st]}", 1)
+
+
+def _renamed_candidate(c: Candidate, renamed: Mapping[str, str]) -> Candidate:
+    """A candidate on the refined mesh (its node station renamed)."""
+    label = _renamed_label(c.label, c.options, renamed)
+    factor = 2
+    return replace(c, options=_renamed_station(c.options, renamed), label=label,
+                   node=None if c.node is None else c.node * factor)
+
+
+def _renamed_term(t, renamed: Mapping[str, str]):
+    """An effect term on the refined mesh."""
+    opts = _renamed_station(t.spec.options, renamed)
+    label = _renamed_label(t.label, t.spec.options, renamed)
+    share = None if t.share is None else _renamed_label(t.share, t.spec.options, renamed)
+    return replace(t, label=label, spec=replace(t.spec, options=opts), share=share)
+
+
+def _renamed_theta(theta: Mapping[str, float], terms, renamed: Mapping[str, str]) -> dict:
+    """Parameter values with the effect terms' keys renamed for the refined mesh."""
+    out = dict(theta)
+    for t in terms:
+        new = _renamed_term(t, renamed)
+        for old_key, new_key in zip(t.keys(), new.keys(), strict=True):
+            if old_key in out:
+                out[new_key] = out.pop(old_key)
+    return out
+
+
+class _Diagnosis:
+    """One diagnosis's state as it runs (:func:`diagnose`)."""
+
+    def __init__(self, data, plant, nominal, parameters, settings: DiagnoseSettings):
+        self.settings = settings
+        self.nominal = plant.resolve(nominal)
+        self.declared = tuple(parameters)
+        known = set(plant.parameter_names()) | set(APPENDED_PARAMETERS)
+        bad = [p for p in self.declared if p not in known]
+        if bad:
+            raise ModelError(f"parameters {bad} are neither plant parameters of {plant.kind} "
+                             f"nor {sorted(APPENDED_PARAMETERS)}")
+        placed, self.tests = prepare(data, plant, self.nominal, band_hz=settings.band_hz,
+                                     tolerance_m=settings.tolerance_m,
+                                     point_map=settings.point_map,
+                                     channel_map=settings.channel_map)
+        self.placed = placed
+        self.tried: list[Tried] = []
+        self.thresholds: list[float] = []
+
+    # ---- the problem ------------------------------------------------------------------
+    def problem(self, plant, tests) -> Problem:
+        """The fitting problem of ``tests`` on ``plant`` (node stations added)."""
+        s = self.settings
+        ptests = tuple(PredictedTest(
+            t.name, t.freq_hz, t.actuators, t.sensors, decay_rad_s=t.frf.window_decay_rad_s,
+            kernel=_kernel(t.frf, s), band_hz=t.frf.band_hz) for t in tests)
+        values = np.concatenate([t.H.ravel() for t in tests])
+        weights = np.concatenate([1.0 / t.sigma.ravel() for t in tests])
+        if 2 * values.size <= len(self.declared) + 1:
+            raise IdentifiabilityError(
+                f"{2 * values.size} real data values (lines x outputs x inputs x 2) cannot "
+                f"determine {len(self.declared)} declared parameters and a candidate; widen "
+                f"the band or add data")
+        model_plant = with_node_stations(plant)
+        f_max = max(float(t.freq_hz.max()) for t in tests)
+        refs = references(model_plant, self.nominal, f_max,
+                          f_min_hz=min(float(t.freq_hz.min()) for t in tests))
+        levels = [r for t in tests if t.frf.input_rms is not None for r in t.frf.input_rms]
+        refs["force"] = float(np.mean(levels)) if levels else 1.0
+        self.refs = refs
+        return Problem(model_plant, dict(self.nominal), ptests, values, weights, self.declared,
+                       {k: refs["time"] for k in self.declared if k == "delay_s"}, None,
+                       {"max_iterations": s.max_iterations, "tolerance": s.tolerance})
+
+    def baseline(self, problem: Problem, start=None) -> tuple[Problem, Fit, Fit]:
+        """The declared parameters fitted: (problem with the baseline's leakage offsets,
+        the baseline, the magnitude fit the phase signatures are read against)."""
+        structural = fit_magnitude(problem, start=start)
+        current = fit(problem, start=structural)
+        problem = with_offsets(problem, current)
+        current = fit(problem, start=current.theta)
+        # the phase signatures are read against the magnitude fit, which a phase error
+        # does not distort (the complex fit may bend the structure to mimic part of it)
+        return problem, current, evaluate(problem, (), self.declared, structural)
+
+    # ---- adequacy --------------------------------------------------------------------
+    def mesh_change(self, problem: Problem, fit_: Fit, noise: float):
+        """The change of the model's FRFs (with ``fit_``'s effects) from its mesh to the
+        mesh halved that refitting cannot absorb, in noise units; and the refined plant
+        with its station renaming."""
+        fine, renamed = adequacy.refined_plant(problem.plant)
+        terms = tuple(_renamed_term(t, renamed) for t in fit_.terms)
+        theta = _renamed_theta(fit_.theta, fit_.terms, renamed)
+        fp = replace(problem, plant=with_node_stations(fine), tests=tuple(
+            replace(pt, actuators=tuple(replace(a, station=renamed.get(a.station, a.station))
+                                        for a in pt.actuators),
+                    sensors=tuple(replace(x, station=renamed.get(x.station, x.station))
+                                  for x in pt.sensors)) for pt in problem.tests))
+        other = fp.predict(terms)(theta)
+        return adequacy.unexplained_change(problem, fit_, other) / noise, fine, renamed
+
+    def check_mesh(self, problem, tests, current, accepted, check=None):
+        """Refine the mesh while halving it changes the model by more than the
+        tolerance (module notes of :mod:`.adequacy`); the model's effects are carried
+        over. Returns (the check, problem, tests, current, accepted, the magnitude fit
+        of a refined baseline or None)."""
+        s = self.settings
+        noise = adequacy.noise_variance(tests) if check is None else check.noise_variance
+        counts = list(check.n_elements[:-1]) if check is not None else []
+        changes = list(check.change[:-1]) if check is not None else []
+        limit = self.placed.n_elements * s.max_refinement
+        signature = None
+        while True:
+            change, fine, renamed = self.mesh_change(problem, current, noise)
+            counts.append(problem.plant.n_elements)
+            changes.append(change)
+            if change <= s.mesh_tolerance:
+                adequate = True
+                break
+            if fine.n_elements > limit:
+                adequate = False
+                break
+            tests = adequacy.renamed_tests(tests, renamed)
+            theta = _renamed_theta(current.theta, current.terms, renamed)
+            accepted = [_renamed_candidate(c, renamed) for c in accepted]
+            fresh = self.problem(fine, tests)
+            if accepted:
+                current = fit(fresh, terms_of(accepted, theta), start=theta)
+                problem = with_offsets(fresh, current)
+                current = fit(problem, current.terms, start=current.theta)
+            else:
+                problem, current, signature = self.baseline(fresh, start=theta)
+        return (adequacy.MeshCheck(tuple(counts), tuple(changes), s.mesh_tolerance, adequate,
+                                   noise), problem, tests, current, accepted, signature)
+
+    # ---- the search ------------------------------------------------------------------
+    def run(self):
+        from truthbench.diagnose.result import Diagnosis
+
+        s = self.settings
+        tests = self.tests
+        problem, base, signature = self.baseline(self.problem(self.placed, tests))
+        mesh, problem, tests, base, _, sig2 = self.check_mesh(problem, tests, base, [])
+        signature = sig2 or signature
+        plant = problem.plant
+        missing: tuple = ()
+        data_modes = _identify(tests) if s.identify_modes else [None] * len(tests)
+        if s.identify_modes:
+            missing = adequacy.missing_modes(tests, problem, base, data_modes,
+                                             mesh.noise_variance)
+            if missing:
+                tests = adequacy.without_bands(tests, [m.band_hz for m in missing])
+                problem, base, signature = self.baseline(self.problem(plant, tests),
+                                                         start=base.theta)
+                data_modes = _identify(tests)
+        baseline, before_problem = base, problem
+        self._baseline_chi2 = base.chi2
+        n = problem.n_independent
+        cands = catalogue(problem.plant, self.nominal, tests, names=s.candidates)
+        current = base
+        accepted: list[Candidate] = []
+        alternatives: dict[str, tuple[Alternative, ...]] = {}
+        dropped: list[Found] = []
+        fits: dict[str, Refit] = {}
+        measured: tuple[Measurement, ...] = ()
+        for step in range(2 * s.max_effects + 1):
+            if len(accepted) >= s.max_effects:
+                break
+            chosen, finals = self.step(problem, current, cands, accepted, step, n, signature,
+                                       tests)
+            if chosen is None:
+                break
+            accepted.append(chosen.candidate)
+            current, problem = chosen.fit, chosen.problem
+            fits[chosen.candidate.label] = chosen
+            runner = ambiguous(finals, chosen, s.ambiguity_margin)
+            if runner is not None:
+                alternatives[chosen.candidate.label] = (self._alternative(runner),)
+                try:
+                    measured += measurements(problem, chosen.fit, runner.fit,
+                                             (chosen.candidate.label, runner.candidate.label),
+                                             tests, problem.plant)
+                except REFIT_ERRORS:
+                    pass
+            accepted, current, problem, gone = self.backward(problem, current, accepted, n,
+                                                             step)
+            dropped += gone
+            # the model with its effects must still be resolved by its mesh (an
+            # attachment between nodes is represented to O(h^3) only)
+            used = problem.plant.n_elements
+            mesh, problem, tests, current, accepted, _ = self.check_mesh(
+                problem, tests, current, accepted, mesh)
+            if problem.plant.n_elements != used:
+                cands = catalogue(problem.plant, self.nominal, tests, names=s.candidates)
+        found = self.evidence(problem, current, accepted, n, alternatives)
+        before = residual_views(tests, _parts(tests, baseline.model), len(baseline.names),
+                                modes=_modes(tests, before_problem, baseline, data_modes))
+        after = residual_views(tests, _parts(tests, current.model), len(current.names),
+                               modes=_modes(tests, problem, current, data_modes))
+        return Diagnosis(tuple(found), before, after, baseline, current, tuple(self.tried), s,
+                         tests, problem.plant, dict(self.nominal), self.declared, problem.n,
+                         float(n), tuple(self.thresholds), mesh=mesh, missing=missing,
+                         dropped=tuple(dropped), measurements=measured)
+
+    def step(self, problem, current, cands, accepted, step, n, signature, tests):
+        """One forward step: screen, refit, choose. Returns (the chosen full refit or
+        None, every full refit of the step)."""
+        s = self.settings
+        refs = self.refs
         pred = problem.predictor(current.terms)
         cands = bind_levels(cands, lambda t, pred=pred, cur=current: pred.hardware(
             cur.theta, t.actuators, t.sensors, test=t.name), tests)
-        screened = _screen(problem, current, cands, accepted, refs, step, tried)
+        screened = screen(problem, current, cands, accepted, refs, step, self.tried)
         if not screened:
-            break
+            return None, []
+        # the threshold grows with the number of candidates tried (look-elsewhere: the
+        # best of M noise-only chi2 drops is about 2 ln M)
+        threshold = s.threshold + 2.0 * np.log(max(len(screened), 1))
+        self.thresholds.append(float(threshold))
+        # nothing to refit when not even the best screened drop, three times over, would
+        # be significant (exact profiles and line searches are lower bounds of what a
+        # refit reaches; the factor covers the first-order scores' error)
+        k = max(len(sc.candidate.fitted) for sc in screened)
+        if delta_bic(n, current.chi2, max(current.chi2 - 3 * screened[0].drop,
+                                          1e-12 * current.chi2), 1) - (k - 1) * np.log(n) \
+                < threshold:
+            self.tried.extend(Tried(step, sc.candidate.label, sc.candidate.effect,
+                                    sc.candidate.options, sc.drop) for sc in screened)
+            return None, []
+        results: dict[str, Refit | None] = {}
+        chosen = shortlist(screened, best=s.refits, factor=3.0)
         # candidates a residual signature points at start where it points (a delay from
         # the matched-delay profile, a gain from the magnitude ratio), with the declared
         # parameters of the magnitude fit at the first step: a first-order score from
         # zero misjudges a phase error of several radians
-        base = signature_fit if step == 0 else current
+        base = signature if step == 0 and signature is not None else current
         views = residual_views(tests, _parts(tests, base.model), len(base.names))
-        results = {}
-        for drop, c, _, _ in screened:
-            start = _signature_start(c, views, tests, base.model)
-            if start is not None:
-                results[c.label] = _refit(problem, current, accepted, c, drop, start, refs,
-                                          n, step, tried, declared_start=base.theta)
-        # the best located ones, every effect without a location (a handful) whose
-        # screened drop is within a factor 10 of the best (its screening is the
-        # roughest), and the best location of every other located effect within a factor
-        # 2: screens of different effects are approximate in different ways (an exact
-        # point attachment on a grid of strengths against a joint's line search), so one
-        # effect's many locations must not crowd out another's best
-        top = screened[0][0]
-        chosen = list(screened[:settings.refits]) + [
-            s for s in screened[settings.refits:] if s[1].node is None and s[0] > 0.1 * top]
-        kinds = {c.effect for _, c, _, _ in chosen}
-        for s_ in screened[settings.refits:]:
-            if s_[1].node is not None and s_[1].effect not in kinds and s_[0] > 0.5 * top:
-                chosen.append(s_)
-                kinds.add(s_[1].effect)
-        for drop, c, guess, adapt in chosen:
-            if c.label not in results:
-                results[c.label] = _refit(problem, current, accepted, c, drop, guess, refs,
-                                          n, step, tried,
-                                          declared_start=_adapted(current.theta, adapt))
-        # locations next to the best located refit (a first-order score can rank a
-        # mirror image or a neighbour first for a large change)
-        best = max((r for r in results.values() if r and r[1].node is not None),
-                   key=lambda r: r[0], default=None)
-        if best is not None:
-            for drop, c, guess, adapt in screened:
-                if (c.effect == best[1].effect and c.label not in results
-                        and c.options.get("direction") == best[1].options.get("direction")
-                        and abs(c.node - best[1].node) <= 2):
-                    results[c.label] = _refit(
-                        problem, current, accepted, c, drop, guess, refs, n, step, tried,
-                        declared_start=_adapted(current.theta, adapt))
-        screened_out = {c.label for _, c, _, _ in screened} - set(results)
-        tried.extend(Tried(step, c.label, c.effect, c.options, drop)
-                     for drop, c, _, _ in screened if c.label in screened_out)
-        # the threshold grows with the number of candidates tried (look-elsewhere: the
-        # best of M noise-only chi2 drops is about 2 ln M)
-        threshold = settings.threshold + 2.0 * np.log(max(len(screened), 1))
-        thresholds.append(float(threshold))
-        ok = sorted((r for r in results.values()
-                     if r and not r[3].startswith("unphysical") and r[0] > threshold),
-                    key=lambda r: -r[0])
-        # the two best, and the best location of the next best effects, refitted in
-        # full, each with the estimator's leakage at its own model (the offsets of the
-        # current model are wrong where a candidate moves a sharp mode by more than a
-        # line), and compared on that consistent chi2
-        finals = []
-        shortlist = list(ok[:2])
-        for r in ok[2:]:
-            if r[1].effect not in {x[1].effect for x in shortlist}:
-                shortlist.append(r)
-        for dbic0, c, quick, _ in shortlist[:4]:
-            if dbic0 < 0.5 * ok[0][0]:
-                break
-            pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
-            try:
-                full = fit(_with_offsets(pc, quick), quick.terms, start=quick.theta)
-                if c.levels is not None:  # friction: the levels with its own damping in
-                    c, full = _relevel(_with_offsets(pc, full), c, accepted, full, tests)
-                pc = _with_offsets(pc, full)
-                full = fit(pc, full.terms, start=full.theta)
-            except (IdentifiabilityError, ModelError, ValueError,
-                    np.linalg.LinAlgError) as exc:
-                tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
-                                   status=f"full refit: {refit_error(exc)}"))
+        delay = None
+        top = screened[0].drop
+        for sc in screened:
+            c = sc.candidate
+            if sc.drop < top / 10 and sc not in chosen:
                 continue
-            dbic = float(n * np.log(current.chi2 / full.chi2) - len(c.fitted) * np.log(n))
-            if dbic > threshold and not _bounds_ok(c, full.theta, full.std,
-                                                            c.scales(refs)):
-                finals.append((dbic, c, full, pc))
+            if c.effect in PHASE_EFFECTS and delay is None:
+                delay = data_delay(tests, base.model, views)
+            start = signature_start(c, views, tests, base.model, delay)
+            if start is not None:
+                results[c.label] = refit(problem, current, accepted, c, sc.drop, start, refs,
+                                         n, step, self.tried, declared_start=base.theta)
+        for sc in chosen:
+            c = sc.candidate
+            if c.label not in results:
+                results[c.label] = refit(problem, current, accepted, c, sc.drop, sc.guess,
+                                         refs, n, step, self.tried,
+                                         declared_start=adapted(current.theta, sc.adapt))
+        # the best located refit's neighbours (a first-order score can rank a mirror
+        # image or a neighbour first for a large change)
+        best = max((r for r in results.values() if r and r.candidate.node is not None),
+                   key=lambda r: r.delta_bic, default=None)
+        if best is not None:
+            b = best.candidate
+            for sc in screened:
+                c = sc.candidate
+                if (c.effect == b.effect and c.label not in results
+                        and c.options.get("direction") == b.options.get("direction")
+                        and abs(c.node - b.node) <= 1):
+                    results[c.label] = refit(problem, current, accepted, c, sc.drop,
+                                             sc.guess, refs, n, step, self.tried,
+                                             declared_start=adapted(current.theta, sc.adapt))
+        labels = {r.candidate.label for r in results.values() if r}
+        self.tried.extend(Tried(step, sc.candidate.label, sc.candidate.effect,
+                                sc.candidate.options, sc.drop) for sc in screened
+                          if sc.candidate.label not in labels and sc.candidate.label
+                          not in {t.label for t in self.tried if t.step == step})
+        ok = sorted((r for r in results.values() if r and r.physical and
+                     r.delta_bic > threshold), key=lambda r: -r.delta_bic)
+        # the best two, and the best location of the next best effects, completed, each
+        # with the estimator's leakage at its own model, compared on that chi2
+        short = list(ok[:2])
+        for r in ok[2:]:
+            if r.candidate.effect not in {x.candidate.effect for x in short}:
+                short.append(r)
+        finals = []
+        for r in short[:4]:
+            if r.delta_bic < 0.5 * ok[0].delta_bic and finals:
+                break
+            try:
+                full = full_refit(problem, current, accepted, r, refs, n, tests)
+            except REFIT_ERRORS as exc:
+                c = r.candidate
+                self.tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
+                                        status=f"full refit: {refit_error(exc)}"))
+                continue
+            if full.delta_bic > threshold and full.physical:
+                finals.append(full)
         if not finals:
-            break
-        dbic, c, current, problem = max(finals, key=lambda x: x[0])
-        accepted.append(c)
-        own = {p.name: current.theta[f"{c.label}.{p.name}"] for p in c.fitted}
-        std = {p.name: current.std[f"{c.label}.{p.name}"] for p in c.fitted}
-        found.append(Found(c.effect, dict(c.options), c.effect_values(own), own, std,
-                           dbic, c.node, c.label))
-    data_modes = _identify(tests) if settings.identify_modes else [None] * len(tests)
-    before = residual_views(tests, _parts(tests, baseline.model), len(baseline.names),
-                            modes=_modes(tests, problem, baseline, data_modes))
-    after = residual_views(tests, _parts(tests, current.model), len(current.names),
-                           modes=_modes(tests, problem, current, data_modes))
-    return Diagnosis(tuple(found), before, after, baseline, current, tuple(tried), settings,
-                     tests, model_plant, dict(nominal), declared, problem.n, float(n),
-                     tuple(thresholds))
+            return None, finals
+        chosen = max(finals, key=lambda r: r.delta_bic)
+        chosen = self.refine_position(problem, current, accepted, chosen, n, step, tests)
+        return chosen, finals
 
+    def refine_position(self, problem, current, accepted, chosen: Refit, n, step, tests
+                        ) -> Refit:
+        """A point attachment's position searched between the nodes next to it: its
+        exact chi2 profile along the two elements either side (eight points each, then
+        eight between the best and its neighbours), and the best point refitted. The
+        refit replaces the chosen one when it explains the data better."""
+        c = chosen.candidate
+        if c.effect not in POINT_EFFECTS or c.node is None:
+            return chosen
+        plant = problem.plant
+        N = plant.n_elements
+        value = abs(float(next(iter(fitted_own(c, chosen.fit.theta).values()))))
+        if not value > 0:
+            return chosen
+        strengths = value * np.logspace(-0.4, 0.4, 17)
+        lo, hi = max(c.node - 1, 0) / N, min(c.node + 1, N) / N
+        best = None
+        for fractions in (np.linspace(lo, hi, 17), None):
+            if fractions is None:
+                if best is None:
+                    return chosen
+                d = (hi - lo) / 16
+                fractions = np.clip(best[0] + d * np.linspace(-1, 1, 9), lo, hi)
+            prof = position_profile(problem, current, c, fractions, strengths)
+            top = max(prof, key=lambda x: x[1], default=None)
+            if top is not None and (best is None or top[1] > best[1]):
+                best = top
+        fraction, drop, strength, adapt = best
+        start = adapted(current.theta, dict(zip(current.names, adapt, strict=True)))
 
-def _relevel(problem, c: Candidate, accepted, fit_, tests, passes: int = 2):
-    """Refit a friction candidate with its levels recomputed from the model that
-    includes its own equivalent damping (the statistical linearisation's fixed point:
-    friction lowers the response it is linearised at)."""
-    for _ in range(passes):
-        pred = problem.predictor(fit_.terms)
-        (c,) = bind_levels([c], lambda t, pred=pred, th=fit_.theta: pred.hardware(
-            th, t.actuators, t.sensors, test=t.name), tests)
-        own = _fitted_own(c, fit_.theta)
-        terms = tuple(x for a in accepted for x in a.terms(start=_fitted_own(a, fit_.theta)))
-        fit_ = fit(problem, terms + c.terms(start=own), start=fit_.theta)
-    return c, fit_
+        def quick_at(fr):
+            name = f"x{fr:.6f}"
+            moved_plant = replace(plant, stations={**plant.stations, name: float(fr)})
+            opts = {**c.options, "station": name}
+            label = f"{c.effect}@{name}" + (f".{opts['direction']}" if "direction" in opts
+                                            else "")
+            moved = replace(c, options=opts, label=label, node=int(round(fr * N)))
+            pm = replace(problem, plant=moved_plant)
+            return pm, refit(pm, current, accepted, moved, drop, np.array([strength]),
+                             self.refs, n, step, self.tried, declared_start=start)
 
-
-def _adapted(theta: Mapping[str, float], step: Mapping[str, float]) -> dict[str, float]:
-    """``theta`` moved by a first-order step of its parameters, each change held within
-    half the parameter's size (a linearised step from a biased fit can overshoot)."""
-    out = dict(theta)
-    for k, d in step.items():
-        limit = 0.5 * abs(theta[k]) if theta[k] else abs(d)
-        out[k] = theta[k] + float(np.clip(d, -limit, limit))
-    return out
-
-
-def _signature_start(c: Candidate, views: Residual, tests, model) -> np.ndarray | None:
-    """Starting values a residual signature gives a candidate, or None: the matched
-    delay (the chi2 profile of a pure delay, searched from the phase slope) for a delay
-    or a low-pass (whose phase falls as -omega tau at low frequency), the magnitude ratio
-    less 1 for a gain (of one channel, or of all)."""
-    if c.effect in ("time_delay", "actuator_dynamics", "sensor_dynamics"):
-        f = np.concatenate([np.broadcast_to(t.freq_hz[:, None, None], t.H.shape).ravel()
-                            for t in tests])
-        data = np.concatenate([t.H.ravel() for t in tests])
-        w = np.concatenate([1.0 / t.sigma.ravel() for t in tests])
-        return np.array([matched_delay(f, data, model, w, views.delay_s)])
-    if c.effect == "channel_gain":
-        ratios = [ch.magnitude_ratio for ch in views.channels
-                  if ch.output == c.options["sensor"]]
-        return np.array([float(np.mean(ratios)) - 1.0]) if ratios else None
-    if c.effect == "sensor_bias":
-        return np.array([float(np.mean([ch.magnitude_ratio for ch in views.channels]))
-                         - 1.0])
-    return None
-
-
-LINE_STEPS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0)
-"""Multiples of a candidate's first-order step tried by :func:`_line_search`."""
-
-NATURAL_STEPS = (0.3, 1.0, 3.0, 10.0)
-"""Multiples of a global candidate's natural sizes tried, each parameter alone and with
-either sign (the first-order step from a biased baseline may point the wrong way)."""
-
-
-def _line_search(problem, current, accepted, c, drop, guess, sizes):
-    """The chi2 drop along a candidate's first-order step, the model otherwise held:
-    ``chi2(start + a (guess - start))`` for the :data:`LINE_STEPS` (bounded below by
-    the parameters' minimum), which sees what a first-order score misses for a large
-    change (a strong dashpot flattens a peak, it does not shift it linearly). A step
-    clamped at a physical bound is replaced by the parameters' natural ``sizes`` (so a
-    stiff spring that the current fit half-absorbed is still tried). Returns (drop, best
-    point)."""
-    start = np.array([p.start for p in c.fitted])
-    step = guess - start
-    size = np.array([sizes[k] for k in c.keys()])
-    if not np.any(step):  # clamped at a bound: try it at its natural sizes instead
-        step = size
-    terms = tuple(x for a in accepted for x in a.terms(start=_fitted_own(a, current.theta)))
-    predict = problem.predict(terms + c.terms())
-    best = (drop, guess)
-    low = np.array([-np.inf if p.minimum is None else p.minimum for p in c.fitted])
-    points = [start + a * step for a in LINE_STEPS]
-    if c.node is None:  # a global effect: each parameter alone, both signs, by size
-        for i in range(len(start)):
-            for a in NATURAL_STEPS:
-                for sign in (1.0, -1.0):
-                    points.append(start + sign * a * size * (np.arange(len(start)) == i))
-    for point in points:
-        point = np.maximum(point, low)
-        theta = {**current.theta, **{k: float(v) for k, v in zip(c.keys(), point,
-                                                                  strict=True)}}
+        # the profile's first-order adaptation of the declared parameters blurs the
+        # position by a fraction of an element: a parabola through three quick refits
+        h = (hi - lo) / 32
+        trio = [(fr, quick_at(fr)) for fr in np.clip(fraction + h * np.arange(-1, 2), lo, hi)]
+        if all(q is not None and q.physical for _, (_, q) in trio) and len(
+                {fr for fr, _ in trio}) == 3:
+            x = np.array([fr for fr, _ in trio])
+            y = np.array([q.fit.chi2 for _, (_, q) in trio])
+            a, b, _ = np.polyfit(x - x[1], y, 2)
+            if a > 0:
+                fraction = float(np.clip(x[1] - b / (2 * a), x[0] - h, x[2] + h))
+        if abs(fraction * N - round(fraction * N)) < 1e-6:
+            return chosen  # the best point is a node: the candidate as it is
+        pm, quick = quick_at(fraction)
+        if quick is None or not quick.physical:
+            return chosen
         try:
-            chi2 = problem.chi2(np.asarray(predict(theta)))
-        except (ModelError, ValueError):
-            continue
-        if current.chi2 - chi2 > best[0]:
-            best = (current.chi2 - chi2, point)
-    return best
+            full = full_refit(pm, current, accepted, quick, self.refs, n, tests)
+        except REFIT_ERRORS as exc:
+            m = quick.candidate
+            self.tried.append(Tried(step, m.label, m.effect, m.options, float("nan"),
+                                    status=f"full refit: {refit_error(exc)}"))
+            return chosen
+        return full if full.physical and full.delta_bic > chosen.delta_bic else chosen
 
+    def backward(self, problem, current, accepted, n, step):
+        """Drop the earlier effects that are no longer significant (each refitted out of
+        the model in turn; the least needed goes first, then the rest are tested again).
+        Returns (accepted, current, problem, the dropped effects as Found)."""
+        s = self.settings
+        gone = []
+        while len(accepted) > 1:
+            worst = None
+            for a in accepted[:-1]:
+                rest = [x for x in accepted if x is not a]
+                try:
+                    pc = with_offsets(problem, current)
+                    without = fit(pc, terms_of(rest, current.theta), start=current.theta)
+                except REFIT_ERRORS:
+                    continue
+                dbic = delta_bic(n, without.chi2, current.chi2, len(a.fitted))
+                if dbic < s.threshold and (worst is None or dbic < worst[0]):
+                    worst = (dbic, a, without, pc)
+            if worst is None:
+                break
+            dbic, a, without, pc = worst
+            own = fitted_own(a, current.theta)
+            gone.append(Found(a.effect, dict(a.options), a.effect_values(own), own,
+                              {k: float("nan") for k in own}, float(dbic), a.node, a.label))
+            self.tried.append(Tried(step, a.label, a.effect, a.options, float("nan"),
+                                    float(dbic), own, a.effect_values(own),
+                                    "dropped: no longer significant"))
+            accepted = [x for x in accepted if x is not a]
+            current, problem = without, with_offsets(pc, without)
+        return accepted, current, problem, gone
 
-def _screen(problem, current, cands, accepted, refs, step, tried, *, per_effect=3):
-    """Every candidate's chi2 drop, best first: (drop, candidate, guess). Point
-    attachments (springs, dashpots, masses) get their exact profile over a grid of
-    strengths (:func:`~.screen.point_profiles`); the others the first-order (score) drop,
-    and, for the ``per_effect`` best of each effect, the drop along that step
-    (:func:`_line_search`)."""
-    out = []
-    todo = [c for c in cands if not any(c.label == a.label for a in accepted)]
-    sizes = {k: v for c in todo for k, v in c.scales(refs).items()}
-    exact = point_profiles(problem, current, todo, sizes)
-    for c in todo:
-        if c.label in exact:  # point attachments: the exact profile over strengths
-            drop, strength, adapt = exact[c.label]
-            out.append((drop, c, np.array([strength]), dict(zip(current.names, adapt,
-                                                               strict=True))))
-            continue
-        scales = c.scales(refs)
-        pc = replace(problem, scales={**problem.scales, **scales})
-        try:
-            cols = candidate_columns(pc, current, c.terms(), scales)
-        except (ModelError, ValueError) as exc:
-            tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
-                               status=refit_error(exc)))
-            continue
-        start = np.array([p.start for p in c.fitted])
-        drop, guess = score(current, cols, start, [p.minimum for p in c.fitted])
-        out.append((drop, c, guess, {}))
-    out.sort(key=lambda s: -s[0])
-    lined, count = [], {}
-    for drop, c, guess, adapt in out:
-        count[c.effect] = count.get(c.effect, 0) + 1
-        if count[c.effect] <= per_effect and c.label not in exact:
-            pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
-            drop, guess = _line_search(pc, current, accepted, c, drop, guess,
-                                       c.scales(refs))
-        lined.append((drop, c, guess, adapt))
-    return sorted(lined, key=lambda s: -s[0])
+    def evidence(self, problem, current, accepted, n, alternatives) -> list[Found]:
+        """The found effects with their evidence in the final model (delta BIC of the
+        model refitted without each)."""
+        out = []
+        plant = problem.plant
+        for a in accepted:
+            if len(accepted) == 1:
+                chi2_without = self._baseline_chi2
+            else:
+                rest = [x for x in accepted if x is not a]
+                try:
+                    chi2_without = fit(problem, terms_of(rest, current.theta),
+                                       start=current.theta, quick=True).chi2
+                except REFIT_ERRORS:
+                    chi2_without = float("nan")
+            own = fitted_own(a, current.theta)
+            std = {p.name: current.std.get(f"{a.label}.{p.name}", float("nan"))
+                   for p in a.fitted}
+            station = a.options.get("station")
+            x_m = None if station is None else float(
+                plant.station_coordinates_m(station, self.nominal)[0])
+            out.append(Found(a.effect, dict(a.options), a.effect_values(own), own, std,
+                             delta_bic(n, chi2_without, current.chi2, len(a.fitted)),
+                             a.node, a.label, x_m, alternatives.get(a.label, ())))
+        return out
 
-
-def _refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
-           declared_start=None):
-    """A candidate's quick refit with the declared parameters and the effects found:
-    (delta BIC, candidate, fit, status) or None when it fails (recorded in ``tried``).
-    The parameters start at ``current`` (or ``declared_start``), the candidate's at
-    ``guess``."""
-    start = {p.name: float(v) for p, v in zip(c.fitted, guess, strict=True)}
-    # steps and trust region in units of the larger of the natural size and the start
-    # (a strong effect found by the screening is many natural sizes away from zero)
-    scales = {k: max(v, abs(start[k.rsplit(".", 1)[1]]))
-              for k, v in c.scales(refs).items()}
-    pc = replace(problem, scales={**problem.scales, **scales})
-    terms = tuple(x for a in accepted for x in a.terms(start=_fitted_own(a, current.theta)))
-    theta = current.theta if declared_start is None else declared_start
-    try:
-        cf = fit(pc, terms + c.terms(start=start), start=theta, quick=True)
-    except (IdentifiabilityError, ModelError, ValueError, np.linalg.LinAlgError) as exc:
-        tried.append(Tried(step, c.label, c.effect, c.options, drop, status=refit_error(exc)))
-        return None
-    dbic = float(n * np.log(current.chi2 / cf.chi2) - len(c.fitted) * np.log(n))
-    own = {p.name: cf.theta[f"{c.label}.{p.name}"] for p in c.fitted}
-    status = _bounds_ok(c, cf.theta, {}, c.scales(refs)) or ("refitted" if cf.converged
-                                              else "refitted (iteration cap)")
-    tried.append(Tried(step, c.label, c.effect, c.options, drop, dbic, own,
-                       c.effect_values(own), status))
-    return dbic, c, cf, status
-
-
-def _fitted_own(c: Candidate, theta: Mapping[str, float]) -> dict[str, float]:
-    return {p.name: float(theta[f"{c.label}.{p.name}"]) for p in c.fitted
-            if f"{c.label}.{p.name}" in theta}
+    def _alternative(self, r: Refit) -> Alternative:
+        c = r.candidate
+        own = fitted_own(c, r.fit.theta)
+        return Alternative(c.effect, dict(c.options), c.label, c.effect_values(own), own,
+                           r.delta_bic, c.node)
 
 
 __all__ = ["DiagnoseSettings", "Found", "Residual", "Tried", "diagnose"]

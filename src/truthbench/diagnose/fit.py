@@ -5,8 +5,9 @@ input, real and imaginary parts apart,
 
     chi2(theta) = sum ((Re, Im)(H_data - H_model(theta)) / sigma)^2,
 
-minimised by the project's finite-difference FRF updater (METHOD 5.1, Levenberg-
-Marquardt damped Gauss-Newton, identifiability checked at every iteration). The model
+minimised by the project's finite-difference FRF updater (the chapter's Eq.
+10.12-10.21, Levenberg-Marquardt damped Gauss-Newton, identifiability checked at every
+iteration). The model
 FRF is what the data's estimator would have measured: the exact FRF at ``s = sigma_w +
 j omega`` for exponentially windowed data, plus, for averaged estimates whose window
 and segments are known, the leakage offset ``E[H1] - H`` computed at a reference fit
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -36,6 +37,11 @@ MODE_TOLERANCE = 1e-12
 """Modes whose resonance peak at the data's channels is below this fraction of the
 largest are left out of the model FRFs (:func:`truthbench.model.frf`): far below any
 measured noise, and a several-fold speed-up for channels in one plane."""
+
+
+QUICK_ITERATIONS = 10
+"""Iterations of a quick refit (:func:`fit` with ``quick``): it ranks candidates from a
+screened start; the chosen one is completed."""
 
 
 def stack(z: np.ndarray) -> np.ndarray:
@@ -85,9 +91,22 @@ class Problem:
         """Real data values (twice the complex ones)."""
         return 2 * self.data.size
 
+    @property
+    def correlation_lines(self) -> float:
+        """Lines per independent value of the data's estimates (the largest of the
+        tests'; 1 when no estimator is known): a windowed estimate's adjacent lines share
+        their noise over the window's bandwidth."""
+        return max((1.0 if t.kernel is None else t.kernel.correlation_lines
+                    for t in self.tests), default=1.0)
+
+    @property
+    def n_independent(self) -> float:
+        """Independent real values: :attr:`n` over :attr:`correlation_lines`."""
+        return self.n / self.correlation_lines
+
     def predictor(self, terms: Sequence[EffectTerm] = ()) -> FRFPredictor:
         return FRFPredictor(self.plant, self.nominal, self.tests, tuple(terms),
-                            mode_tolerance=MODE_TOLERANCE)
+                            mode_tolerance=MODE_TOLERANCE, reduced=True)
 
     def predict(self, terms: Sequence[EffectTerm] = ()):
         """``theta -> model vector`` (exact FRF plus the held leakage offset)."""
@@ -129,8 +148,9 @@ class Fit:
     residual : ndarray, shape (n,)
         Weighted, stacked residual ``w (data - model)`` at the fit.
     covariance : ndarray, shape (p, p)
-        Parameter covariance, ``s2 (J' J)^-1`` with ``s2 = chi2 / (n - p)`` (the noise
-        scale estimated from the residual), in the parameters' units.
+        Parameter covariance (:func:`covariance`: column-scaled, the noise scale
+        estimated from the residual, lines' correlation counted), in the parameters'
+        units.
     model : ndarray, complex, shape (N,)
         The model vector at the fit.
     """
@@ -156,6 +176,17 @@ class Fit:
                 for i, n in enumerate(self.names)}
 
 
+def with_offsets(problem: Problem, current: Fit) -> Problem:
+    """The problem with the estimator's leakage offset ``E[H1] - H`` at ``current``'s
+    parameters and effects (unchanged when no test states its estimator)."""
+    if not any(t.kernel is not None for t in problem.tests):
+        return problem
+    pred = problem.predictor(current.terms)
+    exact = pred.predict_vector(current.theta)
+    seen = pred.predict_vector(current.theta, estimator=True)
+    return replace(problem, offsets=seen - exact)
+
+
 def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         start: Mapping[str, float] | None = None, quick: bool = False) -> Fit:
     """Fit the declared parameters and every fitted parameter of ``terms``.
@@ -168,10 +199,11 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
     start : mapping, optional
         Starting values overriding the nominal ones.
     quick : bool
-        A candidate's trial refit: forward differences, at most 20 iterations to a
-        relative change of 1e-4, and no Jacobian at the end (``jacobian`` and
-        ``covariance`` are empty). The chi2 is then within a small fraction of the
-        optimum's; the chosen candidate is refitted in full.
+        A candidate's trial refit: forward differences, at most
+        :data:`QUICK_ITERATIONS` iterations to a relative change of 1e-4, and no
+        Jacobian at the end (``jacobian`` and ``covariance`` are empty). The chi2 is
+        then within a small fraction of the optimum's; the chosen candidate is refitted
+        in full.
 
     Raises
     ------
@@ -188,7 +220,7 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         res = finite_difference_update(
             predict, problem.data, theta0, names, n_pairs=None,
             weights=problem.weights, additive=problem.additive(names),
-            max_iterations=20 if quick else s.get("max_iterations", 30),
+            max_iterations=QUICK_ITERATIONS if quick else s.get("max_iterations", 30),
             tolerance=1e-4 if quick else s.get("tolerance", 1e-6),
             relative_step=s.get("relative_step", 1e-4), max_step=4.0,
             scheme="forward" if quick else "central")
@@ -248,11 +280,53 @@ def evaluate(problem: Problem, terms: Sequence[EffectTerm], names: Sequence[str]
     J = stack(S * problem.weights[:, None]) / unit
     r = stack(problem.weights * (problem.data - model))
     chi2 = float(r @ r)
-    p = len(names)
-    s2 = chi2 / max(problem.n - p, 1)
-    cov = s2 * np.linalg.pinv(J.T @ J)
-    return Fit(terms, names, dict(theta), chi2, bool(converged), int(iterations), J, r, cov,
-               model)
+    return Fit(terms, names, dict(theta), chi2, bool(converged), int(iterations), J, r,
+               covariance(J, chi2, problem.n, problem.correlation_lines), model)
+
+
+def covariance(J: np.ndarray, chi2: float, n: int, correlation_lines: float = 1.0,
+               rcond: float = 1e-10) -> np.ndarray:
+    """Parameter covariance of a least-squares fit, ``s2 (J' J)^-1``, computed on the
+    column-scaled Jacobian.
+
+    The columns of ``J`` are in the parameters' own units (a modulus in Pa next to a
+    mass in kg: column norms 1e13 apart), so ``J' J`` formed directly loses every digit
+    of the small parameters. With ``D = diag(1 / |J_k|)``, ``J D = U S V'`` (SVD) and
+    ``cov = s2 D V S^-2 V' D``; singular values below ``rcond`` of the largest are
+    dropped (a combination the data do not determine has no finite variance: its
+    directions get none rather than a huge one).
+
+    Parameters
+    ----------
+    J : ndarray, shape (n, p)
+        Weighted, stacked sensitivities per unit of each parameter.
+    chi2 : float
+        Weighted cost at the fit.
+    n : int
+        Real data values.
+    correlation_lines : float
+        Adjacent lines of a windowed estimate are correlated (their noise is the same
+        over the window's bandwidth): a least-squares estimate from them varies by this
+        factor more than from independent values (1: independent lines).
+    rcond : float
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        In the parameters' units; ``s2 = chi2 / (n - p)`` is the noise scale estimated
+        from the residual.
+    """
+    p = J.shape[1]
+    if J.shape[0] == 0 or p == 0:
+        return np.full((p, p), np.nan)
+    norms = np.linalg.norm(J, axis=0)
+    d = np.where(norms > 0, 1.0 / np.where(norms > 0, norms, 1.0), 0.0)
+    _, s, Vt = np.linalg.svd(J * d, full_matrices=False)
+    keep = s > rcond * s[0] if s.size and s[0] > 0 else np.zeros(s.shape, bool)
+    inv = np.where(keep, 1.0 / np.where(keep, s, 1.0) ** 2, 0.0)
+    core = (Vt.T * inv) @ Vt
+    s2 = chi2 / max(n - p, 1)
+    return s2 * correlation_lines * (d[:, None] * core * d[None, :])
 
 
 def _keys(terms: Sequence[EffectTerm]) -> tuple[str, ...]:
@@ -264,14 +338,18 @@ def candidate_columns(problem: Problem, current: Fit, terms: Sequence[EffectTerm
                       scales: Mapping[str, float], step: float = 1e-3) -> np.ndarray:
     """Weighted, stacked sensitivities of the model at ``current`` to the fitted
     parameters of a candidate's ``terms`` (forward differences of ``step`` natural sizes
-    from their start), per unit of each parameter, shape (n, k)."""
+    from their start), per unit of each parameter, shape (n, k).
+
+    A candidate starts at its neutral values, where it changes nothing (the effect
+    contract), so the differences are taken from the current model itself (``problem``
+    is the one ``current`` was fitted to)."""
     terms = tuple(terms)
     keys = _keys(terms)
     both = current.terms + terms
     predict = problem.predict(both)
     theta = {**current.theta, **{k: v for k, v in problem.predictor(both).theta0.items()
                                  if k in keys}}
-    base = np.asarray(predict(theta))
+    base = current.model
     cols = []
     for key in keys:
         h = step * scales[key]
@@ -325,5 +403,6 @@ def refit_error(exc: Exception) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-__all__ = ["APPENDED_PARAMETERS", "Fit", "Problem", "candidate_columns", "evaluate", "fit",
-           "fit_magnitude", "refit_error", "score", "stack"]
+__all__ = ["APPENDED_PARAMETERS", "Fit", "Problem", "candidate_columns", "covariance",
+           "evaluate", "fit", "fit_magnitude", "refit_error", "score", "stack",
+           "with_offsets"]

@@ -8,9 +8,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from truthbench.diagnose.adequacy import MeshCheck, MissingMode
 from truthbench.diagnose.core import DiagnoseSettings, Found, Tried
 from truthbench.diagnose.fit import Fit
 from truthbench.diagnose.residual import Residual
+from truthbench.diagnose.verdict import Measurement
 from truthbench.plants.base import Plant
 
 TABLES = ("found", "candidates", "channels", "modes", "pairs", "summary")
@@ -57,6 +59,15 @@ class Diagnosis:
         ``n`` over the estimate's correlated lines per value: the n of the criterion.
     thresholds : tuple of float
         The delta BIC a candidate had to exceed at each step (``threshold + 2 ln M``).
+    mesh : MeshCheck or None
+        The mesh check (the mesh used, refined or not).
+    missing : tuple of MissingMode
+        Modes in the data the model lacks at these channels (their lines left out).
+    dropped : tuple of Found
+        Effects added at an earlier step and dropped when a later one made them
+        insignificant (backward elimination).
+    measurements : tuple of Measurement
+        Where an ambiguous finding's explanations differ most against the noise.
     """
 
     found: tuple[Found, ...]
@@ -73,6 +84,36 @@ class Diagnosis:
     n: int
     n_independent: float = float("nan")
     thresholds: tuple[float, ...] = ()
+    mesh: MeshCheck | None = None
+    missing: tuple[MissingMode, ...] = ()
+    dropped: tuple[Found, ...] = ()
+    measurements: tuple[Measurement, ...] = ()
+
+    UNCERTAINTY_CHI2 = 2.0
+    """The reduced chi2 of the final model (in units of the data's noise) below which
+    its standard deviations are stated: above it the residual is model error, not noise,
+    and a covariance scaled by it does not describe the error of the values."""
+
+    @property
+    def uncertainty_holds(self) -> bool:
+        """Whether the final residual is at the noise level, so that the standard
+        deviations of the fitted values mean what they say (a Monte Carlo test checks
+        that +-2 sigma then covers the true value about 95 % of the time)."""
+        noise = self.mesh.noise_variance if self.mesh is not None else 1.0
+        return bool(self.after.reduced_chi2 / noise < self.UNCERTAINTY_CHI2)
+
+    @property
+    def verdict(self) -> str:
+        """One line: what the model lacks (each finding, "A or B" where the data cannot
+        tell them apart), or that nothing is missing."""
+        if not self.found:
+            return "nothing missing"
+        parts = []
+        for f in self.found:
+            names = [f"{f.effect} ({_where(f.options)})"] + [
+                f"{a.effect} ({_where(a.options)})" for a in f.alternatives]
+            parts.append(" or ".join(names))
+        return "; ".join(parts)
 
     @property
     def frf_error_before(self) -> float:

@@ -134,17 +134,15 @@ def _second_order_form(frequency: str, ideal_damping: float) -> Diagnosable:
 
     ``a_s2`` and ``b_s`` start at 0 (ideal) with minimum 0. Natural sizes: ``b``, half of
     ``1 / (2 pi f_max)`` (reference ``time``, as ``tau_s``): a damping ratio of 0.5 at a
-    natural frequency of twice the band's top. ``a``: ``0.25 (1 / (2 pi f_max))^2``, that
-    natural frequency; the diagnosis has no reference with units s^2 yet, so it is given
-    on ``time`` with the factor ``0.25 / (2 pi 400 Hz)``, right for a band up to 400 Hz
-    (the natural size then scales as 1 / f_max instead of 1 / f_max^2).
+    natural frequency of twice the band's top. ``a``: ``0.25 (1 / (2 pi f_max))^2``
+    (reference ``time_squared``), that natural frequency.
     """
 
     def to_values(fitted: Mapping[str, float]) -> dict[str, float]:
         f, zeta = second_order_values(fitted["a_s2"], fitted["b_s"], ideal_damping)
         return {frequency: f, "damping_ratio": zeta}
 
-    return Diagnosable((FitParam("a_s2", "time", 0.25 / (2 * np.pi * 400.0), minimum=0.0),
+    return Diagnosable((FitParam("a_s2", "time_squared", 0.25, minimum=0.0),
                         FitParam("b_s", "time", 0.5, minimum=0.0)), to_values=to_values)
 
 

@@ -67,10 +67,11 @@ class FitParam:
     name : str
         The fitted parameter (an effect parameter, or another parameterisation, see
         :attr:`Diagnosable.to_values`).
-    reference : {"mass", "stiffness", "damping", "rotary_damping", "time", "force", "unit"}
+    reference : {"mass", "stiffness", "damping", "rotary_damping", "time", "time_squared", \
+"force", "unit"}
         The model quantity its natural size is a fraction of (total mass, modal stiffness
-        and damping of the first elastic mode, 1 / (2 pi f_max), the inputs' mean RMS,
-        1): sets the fit's step and trust region, not the answer.
+        and damping of the first elastic mode, 1 / (2 pi f_max), its square, the inputs'
+        mean RMS, 1): sets the fit's step and trust region, not the answer.
     factor : float
         The natural size as a fraction of ``reference``.
     start : float

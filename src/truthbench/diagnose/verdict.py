@@ -1,0 +1,206 @@
+"""One verdict per article, and the measurement that would settle it.
+
+When the runner-up of a step explains the data almost as well as the effect chosen
+(their delta BIC within a margin), the data cannot tell them apart and the verdict is
+"A or B", with both fits. The diagnosis then asks where the two models differ most
+against the noise: each candidate sensor (a translation in a measured direction at every
+node, driven by the data's inputs) and each candidate excitation point (at every node,
+read by the data's sensors) is scored by
+
+    separation = sum_f |H_A(f) - H_B(f)|^2 / sigma(f)^2
+
+over the data's lines, ``sigma`` the data's own relative noise (their median
+``sigma / (|H| + median |H|)`` applied to the new channel's response). The best sensor
+and excitation point are named with their separation and its ratio to what the
+measured channels already offer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from truthbench.diagnose.fit import Fit, Problem
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """An effect that explains the data about as well as the one found.
+
+    Attributes
+    ----------
+    effect : str
+    options : dict
+    label : str
+    parameters : dict
+        The effect's own values at its fit.
+    fitted : dict
+    delta_bic : float
+        Its evidence against the model without it (the found effect's is larger by less
+        than the margin).
+    node : int or None
+    """
+
+    effect: str
+    options: dict
+    label: str
+    parameters: dict
+    fitted: dict
+    delta_bic: float
+    node: int | None
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """A measurement that would tell two explanations apart.
+
+    Attributes
+    ----------
+    kind : {"sensor", "excitation"}
+        A new sensor (driven by the data's inputs) or a new excitation point (read by the
+        data's sensors).
+    station : str
+        The model's node station (``n<k>``).
+    x_m : float
+        Its position along the beam, m.
+    direction : str
+    separation : float
+        ``sum |H_A - H_B|^2 / sigma^2`` over the lines (noise units of chi2).
+    gain : float
+        ``separation`` over that of the data already measured (inf when they see no
+        difference).
+    between : (str, str)
+        The two explanations (candidate labels).
+    """
+
+    kind: str
+    station: str
+    x_m: float
+    direction: str
+    separation: float
+    gain: float
+    between: tuple[str, str]
+
+    def summary(self) -> str:
+        what = "a sensor" if self.kind == "sensor" else "an excitation"
+        return (f"{what} at x = {self.x_m:.4g} m ({self.station}, {self.direction}) would "
+                f"separate {self.between[0]} from {self.between[1]}: "
+                f"{self.separation:.3g} noise units of chi2, {self.gain:.3g}x what the "
+                f"measured channels offer")
+
+
+def _relative_noise(tests) -> float:
+    """The data's median ``sigma / (|H| + median |H|)``: the noise of a new channel as a
+    fraction of its response (relative, with an absolute part at antiresonances)."""
+    ratios = []
+    for t in tests:
+        mag = np.abs(t.H)
+        level = np.median(mag, axis=0, keepdims=True)
+        ratios.append((t.sigma / np.maximum(mag + level, 1e-300)).ravel())
+    return float(np.median(np.concatenate(ratios)))
+
+
+def _separation(HA: np.ndarray, HB: np.ndarray, rho: float, axis) -> np.ndarray:
+    mag = np.abs(HA)
+    level = np.median(mag, axis=0, keepdims=True)
+    sigma = rho * np.maximum(mag + level, 1e-300)
+    return np.sum(np.abs(HA - HB) ** 2 / sigma**2, axis=axis)
+
+
+def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, str],
+                 tests, plant, *, count: int = 1) -> tuple[Measurement, ...]:
+    """The sensor and the excitation point that best separate two fitted models.
+
+    Parameters
+    ----------
+    problem : Problem
+    fit_a, fit_b : Fit
+        The two explanations (their effects and parameters).
+    labels : (str, str)
+        Their names.
+    tests : sequence of MeasuredTest
+    plant : Plant
+        The model's plant (node stations ``n<k>``).
+    count : int
+        How many of each kind.
+
+    Returns
+    -------
+    tuple of Measurement
+        The best ``count`` sensors, then the best ``count`` excitation points.
+    """
+    t = max(tests, key=lambda x: x.H.size)
+    f = t.freq_hz
+    rho = _relative_noise(tests)
+    parts = []
+    for fit_ in (fit_a, fit_b):
+        hw = problem.predictor(fit_.terms).hardware(fit_.theta, t.actuators, t.sensors,
+                                                    test=t.name)
+        parts.append(hw)
+    model = parts[0].model
+    labels_dof = model.dof_labels
+    dirs = sorted({s.direction for s in t.sensors if s.direction in ("x", "y", "z")})
+    quantity = t.sensors[0].quantity if t.sensors else "acceleration"
+    nodes = [k for k in range(plant.n_elements + 1)]
+    cand = [(k, d) for k in nodes for d in dirs if f"n{k}.{d}" in labels_dof]
+    if not cand:
+        return ()
+    E = np.zeros((len(cand), model.n_dofs))
+    for i, (k, d) in enumerate(cand):
+        E[i, labels_dof.index(f"n{k}.{d}")] = 1.0
+    new_out, new_in = [], []
+    for hw in parts:
+        m, modes = hw.model, hw.modes
+        g_out, g_in = hw.chain_gains(f, decay_rad_s=t.frf.window_decay_rad_s)
+        common = 1.0 if g_out is None else g_out[:, :1]
+        g_in = 1.0 if g_in is None else g_in
+        kw = dict(modes=modes, decay_rad_s=t.frf.window_decay_rad_s)
+        sens = m.with_io(C_out=E, quantities=(quantity,) * len(cand)).frf(f, **kw)
+        new_out.append(sens * common[:, :, None] * (g_in[:, None, :] if np.ndim(g_in) else 1.0))
+        exc = m.with_io(B=E.T).frf(f, **kw)
+        new_in.append(exc * (g_out[:, :, None] if g_out is not None else 1.0))
+    sep_out = _separation(new_out[0], new_out[1], rho, axis=(0, 2))
+    sep_in = _separation(new_in[0], new_in[1], rho, axis=(0, 1))
+    start = 0
+    base = 0.0
+    ma, mb = fit_a.model, fit_b.model
+    for x in tests:
+        size = x.H.size
+        a, b = ma[start:start + size].reshape(x.H.shape), mb[start:start + size].reshape(x.H.shape)
+        base += float(_separation(a, b, rho, axis=None))
+        start += size
+    xs = plant.node_x_m(problem.plant.resolve(problem.nominal))
+    out = []
+    for kind, sep in (("sensor", sep_out), ("excitation", sep_in)):
+        for i in np.argsort(-sep)[:count]:
+            k, d = cand[int(i)]
+            out.append(Measurement(kind, f"n{k}", float(xs[k]), d, float(sep[i]),
+                                   float(sep[i] / base) if base > 0 else float("inf"),
+                                   labels))
+    return tuple(out)
+
+
+def ambiguous(finals: Sequence, chosen, margin: float, *, nodes_apart: int = 2):
+    """The runner-up that explains the data within ``margin`` of delta BIC of the chosen
+    one, or None: the best of the other effects, or of the same effect at a location
+    more than ``nodes_apart`` nodes away (a neighbour is the same finding, not an
+    alternative)."""
+    best = None
+    for r in finals:
+        c = r.candidate
+        if c.label == chosen.candidate.label:
+            continue
+        same_place = (c.effect == chosen.candidate.effect and
+                      (c.node is None or chosen.candidate.node is None or
+                       abs(c.node - chosen.candidate.node) <= nodes_apart))
+        if same_place or not r.physical:
+            continue
+        if chosen.delta_bic - r.delta_bic <= margin and (best is None or
+                                                         r.delta_bic > best.delta_bic):
+            best = r
+    return best
+
+
+__all__ = ["Alternative", "Measurement", "ambiguous", "measurements"]
