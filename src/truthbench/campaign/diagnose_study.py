@@ -395,14 +395,15 @@ def _found_place(f, plant, x) -> float | None:
     if f.effect == "joint":
         e = min(f.node, plant.n_elements - 1)
         return float(0.5 * (x[e] + x[e + 1]))
-    return float(x[f.node])
+    return float(x[f.node]) if f.x_m is None else float(f.x_m)
 
 
 def _distance(where: float | None, x_m: float) -> float:
     return np.inf if where is None else abs(where - x_m)
 
 
-def score(placed: Sequence[Placed], diag, *, allowed=frozenset()) -> dict:
+def score(placed: Sequence[Placed], diag, *, allowed=frozenset(),
+          element_m: float | None = None) -> dict:
     """Score one diagnosis against what one truth injected: the one place the scores
     are defined (it reads only ``diag.found`` for now).
 
@@ -414,15 +415,21 @@ def score(placed: Sequence[Placed], diag, *, allowed=frozenset()) -> dict:
     allowed : set of str
         Effects the truth really has besides the injected ones (the Timoshenko truth's
         ``element_physics``): reporting them is neither a false alarm nor a miss.
+    element_m : float, optional
+        The model's element length (before any refinement by the diagnosis), m: an
+        effect is located when found within one of it (default: the diagnosis's).
 
     Returns
     -------
     dict
         ``found``, ``first_found`` (the first finding not allowed), ``nothing_found``
         (clean trials: nothing but allowed findings), ``first_correct`` (the first
-        finding not allowed is an injected effect), ``exact`` (the findings not allowed
-        are the injected effects, no more, no fewer), ``all_found`` (every injected
-        effect among the findings), ``allowed_found`` (an allowed finding was made),
+        finding not allowed is an injected effect), ``first_in_verdict`` (it is, or is
+        among the first finding's alternatives when the verdict is "A or B"),
+        ``ambiguous`` (some finding has alternatives), ``exact`` (the findings not
+        allowed are the injected effects, no more, no fewer), ``all_found`` (every
+        injected effect among the findings), ``allowed_found`` (an allowed finding was
+        made), ``missing_modes`` (modes the diagnosis said the model lacks),
         and per injected effect ``k``: ``size{k}`` and ``size_found{k}`` (see
         :func:`effect_size`), ``size_error{k}`` (relative), ``x_true{k}``,
         ``x_found{k}``, ``location_error_m{k}`` and ``located{k}`` (within one model
@@ -436,12 +443,19 @@ def score(placed: Sequence[Placed], diag, *, allowed=frozenset()) -> dict:
     fitted = {k: v for k, v in diag.declared_values().items() if k in plant.parameters}
     params = plant.resolve({**diag.nominal, **fitted})
     x = plant.node_x_m(diag.nominal)
-    element_m = float(np.max(np.diff(x)))
+    if element_m is None:
+        element_m = float(np.max(np.diff(x)))
+    verdict = {judged[0].effect, *(a.effect for a in judged[0].alternatives)} if judged \
+        else set()
     row = {
         "found": ";".join(names) or "none",
         "first_found": judged[0].effect if judged else "none",
         "nothing_found": not judged if not placed else None,
         "first_correct": bool(judged and judged[0].effect in injected) if placed else None,
+        "first_in_verdict": bool(verdict & set(injected)) if placed else None,
+        "ambiguous": any(f.alternatives for f in found),
+        "missing_modes": len(getattr(diag, "missing", ())),
+        "mesh_elements": diag.mesh.used if getattr(diag, "mesh", None) else plant.n_elements,
         "exact": Counter(f.effect for f in judged) == injected if placed else None,
         "all_found": set(injected) <= set(names) if placed else None,
         "allowed_found": any(n in allowed for n in names),
@@ -477,6 +491,22 @@ def score(placed: Sequence[Placed], diag, *, allowed=frozenset()) -> dict:
     return row
 
 
+def failed_score(placed: Sequence[Placed]) -> dict:
+    """The score of a trial whose diagnosis raised: every score a failure."""
+    row = {"found": "error", "first_found": "error",
+           "nothing_found": False if not placed else None,
+           "first_correct": False if placed else None,
+           "first_in_verdict": False if placed else None, "ambiguous": False,
+           "missing_modes": 0, "mesh_elements": np.nan,
+           "exact": False if placed else None, "all_found": False if placed else None,
+           "allowed_found": False}
+    for k, p in enumerate(placed):
+        row.update({f"size{k}": p.size, f"size_found{k}": np.nan, f"size_error{k}": np.nan,
+                    f"x_true{k}": np.nan if p.x_m is None else p.x_m, f"x_found{k}": np.nan,
+                    f"location_error_m{k}": np.nan, f"located{k}": None})
+    return row
+
+
 # ---- trials ------------------------------------------------------------------------
 def forms_of(spec: CampaignSpec) -> tuple[str, ...]:
     """The forms ``[diagnose.study] form`` asks for, in report order."""
@@ -496,18 +526,24 @@ def study_trial(spec: CampaignSpec, trial: int, seed: int,
         truth = truth_of(spec, draw, form)
         data = [simulate_one(truth.spec, trial, j, seed, truth.effects).frf
                 for j in range(len(spec.tests))]
-        diag = diagnose(data, spec.make_plant(), spec.nominal_parameters(),
-                        spec.update.parameters, identify_modes=False,
-                        **spec.diagnose.settings())
+        model = spec.make_plant()
         row = {"trial": trial, "form": form, "n_injected": len(truth.placed),
                "injected": ";".join(p.effect for p in truth.placed) or "none",
                "refine": draw.other.refine if form == "other" else 1,
-               "timoshenko": form == "other" and draw.other.timoshenko,
-               **score(truth.placed, diag, allowed=truth.allowed),
-               "frf_error_before": diag.frf_error_before,
-               "frf_error_after": diag.frf_error_after,
-               "reduced_chi2_before": diag.before.reduced_chi2,
-               "reduced_chi2_after": diag.after.reduced_chi2}
+               "timoshenko": form == "other" and draw.other.timoshenko, "error": ""}
+        try:
+            diag = diagnose(data, model, spec.nominal_parameters(), spec.update.parameters,
+                            **spec.diagnose.settings())
+        except Exception as exc:  # noqa: BLE001 - a failed trial is scored as failed,
+            # and the study goes on: its message is kept in the row
+            row.update(failed_score(truth.placed), error=f"{type(exc).__name__}: {exc}")
+        else:
+            row.update(score(truth.placed, diag, allowed=truth.allowed, element_m=float(
+                np.max(np.diff(model.node_x_m(spec.nominal_parameters()))))))
+            row.update({"frf_error_before": diag.frf_error_before,
+                        "frf_error_after": diag.frf_error_after,
+                        "reduced_chi2_before": diag.before.reduced_chi2,
+                        "reduced_chi2_after": diag.after.reduced_chi2})
         for k, p in enumerate(truth.placed):
             row.update({f"effect{k}": p.effect, f"parameter{k}": p.parameter,
                         f"strength{k}": p.strength})

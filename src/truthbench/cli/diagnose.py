@@ -38,12 +38,31 @@ def _cmd_diagnose(args) -> int:
         return 0
     print(f"{spec.source}: {len(diag.tests)} test(s), {diag.n} real values; declared "
           f"{', '.join(diag.declared) or 'none'}")
-    if not diag.found:
-        print("found: nothing missing")
+    if diag.mesh is not None:
+        print(f"mesh: {diag.mesh.summary()}")
+    for m in diag.missing:
+        print(f"mode the model lacks: {m.summary()}")
+    print(f"verdict: {diag.verdict}")
+    holds = diag.uncertainty_holds
     for f in diag.found:
-        fitted = ", ".join(f"{k} = {sig(v)} +- {sig(f.std[k], 2)}" for k, v in f.fitted.items())
-        where = ", ".join(f"{k} {v}" for k, v in f.options.items()) or "-"
+        fitted = ", ".join(f"{k} = {sig(v)}" + (f" +- {sig(f.std[k], 2)}" if holds else "")
+                           for k, v in f.fitted.items())
+        where = _where(f.options)
+        if f.x_m is not None:
+            where += f" (x = {sig(f.x_m, 4)} m)"
         print(f"found: {f.effect} ({where}): {fitted}; delta BIC {sig(f.delta_bic)}")
+        for a in f.alternatives:
+            alt = ", ".join(f"{k} = {sig(v)}" for k, v in a.parameters.items())
+            print(f"   or: {a.effect} ({_where(a.options)}): {alt}; delta BIC "
+                  f"{sig(a.delta_bic)}")
+    if diag.found and not holds:
+        print(f"(no +- stated: the final residual is above the noise, reduced chi2 "
+              f"{sig(diag.after.reduced_chi2)})")
+    for m in diag.measurements:
+        print(f"to settle it: {m.summary()}")
+    for f in diag.dropped:
+        print(f"dropped: {f.effect} ({_where(f.options)}): no longer significant after a "
+              f"later finding")
     print(f"FRF error (noise-weighted relative RMS): {pct(100 * diag.frf_error_before)} % "
           f"before, {pct(100 * diag.frf_error_after)} % after; reduced chi2 "
           f"{sig(diag.before.reduced_chi2)} -> {sig(diag.after.reduced_chi2)}")
@@ -54,6 +73,10 @@ def _cmd_diagnose(args) -> int:
         print(f"report: {written}")
         print(f"        {written.with_suffix('.md')}")
     return 0
+
+
+def _where(options) -> str:
+    return ", ".join(f"{k} {v}" for k, v in options.items()) or "-"
 
 
 def register(subparsers) -> None:

@@ -19,17 +19,19 @@ exceeds the tolerance (default one noise unit, against a selection threshold of 
 and more), the mesh is refined and checked again, up to a limit; beyond the limit the
 diagnosis says the mesh is too coarse, with the figures.
 
-**Modes the model lacks.** The data's own modes (pLSCF of each test) are aligned with
-the model modes its channels see, in order of frequency (a dynamic-programming
-alignment on log-frequency in which either side may leave a mode unmatched). A data
-mode left unmatched is a mode the model lacks when the model has a mode near it that
-these channels do not see (torsion or lateral bending measured by bending channels: the
-sensors' offsets and cross-axis sensitivity show it in the data), or when no unmatched
-model mode lies within a factor 2.5 in frequency (else it is more likely a model mode
-that an effect moved far, which the candidates will try); and when the baseline's
-residual over its half-power band stands far above the noise. It is reported with its
-frequency, damping and the channels that see it, and its lines are left out of the
-comparison: no effect is fitted to it.
+**Modes the model lacks.** The baseline's residual is scanned for a mode: the pole
+(frequency and damping on a grid, and 0 Hz: a rigid-body motion whose trace in the band
+is its mass line, a roll read by sensors off the axis) that, added with a free complex
+residue in every transfer function, explains most of it (the residues are linear, so the
+scan is a few matrix products). It is a mode the model lacks when it is significant by
+the selection's criterion (with its pole's and residues' parameters counted) and is not a model mode
+moved (no mode the channels see within 2 %, or refitting that mode's own pole beside it
+adds little). A model mode near it that the channels do not see (torsion or lateral
+bending read by bending channels: the sensors' offsets and cross-axis sensitivity show
+it in the data) names it. It is reported with its frequency, damping and the channels
+that see it, and it is modelled in the comparison with a free residue in every transfer
+function (:class:`~.fit.ExtraModes`); the search repeats on what is left. No effect is
+fitted to it.
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from truthbench.diagnose.data import MeasuredTest
-from truthbench.diagnose.fit import Fit, Problem, stack
+from truthbench.diagnose.fit import _POWERS, Fit, Problem, mode_basis, stack
 
 MESH_TOLERANCE = 5.0
 """Largest change (noise units of chi2) of the model's FRFs from its mesh to the mesh
@@ -50,12 +52,8 @@ the default selection threshold (10)."""
 MAX_REFINEMENT = 8
 """The mesh is refined (halved) up to this many times its element count."""
 
-ALIGN_TOLERANCE = 0.1
-"""Relative frequency mismatch that costs as much as leaving a data mode unmatched."""
-
-MODE_SIGNIFICANCE = 25.0
-"""Excess chi2 (noise units) of the baseline's residual over a data mode's band above
-which an unmatched mode is a finding (identification artefacts explain nothing)."""
+MAX_MISSING = 3
+"""Modes the model lacks searched for, one after the other."""
 
 
 @dataclass(frozen=True)
@@ -120,9 +118,10 @@ class MissingMode:
     channels : tuple of str
         The output channels whose residual over its band stands above the noise.
     band_hz : (float, float)
-        The lines left out of the comparison.
+        Its band, five half-power half-widths either side (shaded in the figures); it is
+        modelled in the comparison with free residues.
     excess_chi2 : float
-        The baseline residual's chi2 over that band above the noise's (noise units).
+        The chi2 the mode explains, in noise units.
     model_mode : str or None
         A model mode near it that the channels do not see, e.g. ``"torsion, 1 node at
         861.2 Hz"`` (None: the model has no mode there).
@@ -139,10 +138,15 @@ class MissingMode:
     def summary(self) -> str:
         near = (f"the model has a mode there its channels do not see ({self.model_mode})"
                 if self.model_mode else "the model has no mode near it")
+        if self.freq_hz == 0.0:
+            what = self.model_mode or "a motion of none of the model's rigid-body modes"
+            return (f"a rigid-body motion that the model's channels do not see ({what}; at "
+                    f"0 Hz, its mass line in the band): seen by "
+                    f"{', '.join(self.channels) or '-'}; modelled in the comparison with "
+                    f"free residues")
         return (f"a mode at {self.freq_hz:.5g} Hz (damping {100 * self.damping_ratio:.3g} %) "
                 f"that the model lacks at these channels: {near}; seen by "
-                f"{', '.join(self.channels) or '-'}; lines {self.band_hz[0]:.5g}-"
-                f"{self.band_hz[1]:.5g} Hz left out")
+                f"{', '.join(self.channels) or '-'}; modelled in the comparison with free residues")
 
 
 def noise_variance(tests: Sequence[MeasuredTest]) -> float:
@@ -217,50 +221,128 @@ def renamed_tests(tests: Sequence[MeasuredTest], renamed: dict) -> tuple[Measure
     return tuple(one(t) for t in tests)
 
 
-def _align(data_f: np.ndarray, model_f: np.ndarray, *, skip_data: float = 1.0,
-           skip_model: float = 0.5, tolerance: float = ALIGN_TOLERANCE
-           ) -> list[tuple[int, int]]:
-    """Order-preserving alignment of two ascending frequency lists minimising the sum
-    of ``|ln(f_d / f_m)| / tolerance`` over matched pairs plus the skip costs of the
-    unmatched (dynamic programming). Returns the matched (data, model) index pairs."""
-    n, m = len(data_f), len(model_f)
-    cost = np.full((n + 1, m + 1), np.inf)
-    cost[0, :] = skip_model * np.arange(m + 1)
-    cost[:, 0] = skip_data * np.arange(n + 1)
-    move = np.zeros((n + 1, m + 1), dtype=int)
-    move[0, 1:] = 2
-    move[1:, 0] = 1
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            match = cost[i - 1, j - 1] + abs(np.log(data_f[i - 1] / model_f[j - 1])) / tolerance
-            options = (match, cost[i - 1, j] + skip_data, cost[i, j - 1] + skip_model)
-            k = int(np.argmin(options))
-            cost[i, j], move[i, j] = options[k], k
-    pairs = []
-    i, j = n, m
-    while i > 0 or j > 0:
-        k = move[i, j]
-        if k == 0:
-            pairs.append((i - 1, j - 1))
-            i, j = i - 1, j - 1
-        elif k == 1:
-            i -= 1
-        else:
-            j -= 1
-    return pairs[::-1]
+ZETAS = (0.001, 0.002, 0.005, 0.01, 0.02, 0.05)
+"""Damping ratios a mode the model lacks is scanned with."""
 
 
-def _mode_band(t: MeasuredTest, f: float, zeta: float) -> np.ndarray:
-    """The lines of a mode's band: within five half-power half-widths (``5 zeta f``) of
-    its frequency, at least three lines either side."""
-    df = float(np.median(np.diff(t.freq_hz))) if t.freq_hz.size > 1 else 1.0
-    half = max(5 * max(zeta, 0.0) * f, 3 * df)
-    return np.abs(t.freq_hz - f) <= half
+def _pieces(problem: Problem, current: Fit):
+    """Per test: its slice of the weighted residual, weights (each (n_f, n_out, n_in))
+    and its lines."""
+    out, start = [], 0
+    for t in problem.tests:
+        shape = (t.freq_hz.size, len(t.sensors), len(t.actuators))
+        size = int(np.prod(shape))
+        W = problem.weights[start:start + size].reshape(shape)
+        r = W * (problem.data[start:start + size] - current.model[start:start + size]
+                 ).reshape(shape)
+        out.append((t, r, W))
+        start += size
+    return out
+
+
+def scan_extra_mode(problem: Problem, current: Fit, candidates_hz: np.ndarray):
+    """The single mode that, added to the model with free complex residues in every
+    transfer function, lowers the chi2 most: its frequency (one of ``candidates_hz``),
+    damping ratio (one of :data:`ZETAS`), the drop, and the drop per output.
+
+    The residues are linear: for a trial pole, each transfer function's residue is the
+    least-squares projection of the weighted residual on the pole's weighted basis
+    ``s^p / (s^2 + 2 zeta w s + w^2)``, and its chi2 drop ``|<b, r>|^2 / <b, b>``; a
+    scan over a grid of poles costs a few matrix products.
+
+    Returns
+    -------
+    (freq_hz, zeta, drop, drop per output of the first test) or None
+    """
+    best = None
+    pieces = _pieces(problem, current)
+    for zeta in ZETAS:
+        total = np.zeros(candidates_hz.size)
+        per_out = None
+        for k, (t, r, W) in enumerate(pieces):
+            s = 2j * np.pi * t.freq_hz + t.decay_rad_s
+            bases = {p: mode_basis(s, candidates_hz, zeta, p)
+                     for p in {_POWERS[x.quantity] for x in t.sensors}}
+            drops = np.zeros((candidates_hz.size, len(t.sensors)))
+            for o, x in enumerate(t.sensors):
+                g = bases[_POWERS[x.quantity]]
+                for i in range(len(t.actuators)):
+                    b = W[:, o, i, None] * g  # (n_f, n_cand)
+                    num = b.conj().T @ r[:, o, i]
+                    den = np.sum(np.abs(b) ** 2, axis=0)
+                    drops[:, o] += np.abs(num) ** 2 / np.maximum(den, 1e-300)
+            total += drops.sum(axis=1)
+            if k == 0:
+                per_out = drops
+        e = int(np.argmax(total))
+        if best is None or total[e] > best[2]:
+            best = (float(candidates_hz[e]), zeta, float(total[e]), per_out[e])
+    return best
+
+
+def _shift_drop(problem: Problem, current: Fit, f_e: float, zeta_e: float, f_m: float,
+                zeta_m: float) -> tuple[float, float]:
+    """chi2 drops of the extra mode alone, and with the model's own mode at ``f_m``
+    refitted beside it (free residues for both poles): a model mode moved by an effect
+    leaves a residual that needs both (its old pole taken out, the new put in), a mode the
+    model lacks needs only the new one."""
+    alone = both = 0.0
+    for t, r, W in _pieces(problem, current):
+        s = 2j * np.pi * t.freq_hz + t.decay_rad_s
+        for o, x in enumerate(t.sensors):
+            ge = mode_basis(s, f_e, zeta_e, _POWERS[x.quantity])[:, 0]
+            gm = mode_basis(s, f_m, zeta_m, _POWERS[x.quantity])[:, 0]
+            for i in range(len(t.actuators)):
+                y = r[:, o, i]
+                A1 = (W[:, o, i] * ge)[:, None]
+                A2 = np.column_stack([W[:, o, i] * ge, W[:, o, i] * gm])
+                for A, acc in ((A1, "alone"), (A2, "both")):
+                    c, *_ = np.linalg.lstsq(A, y, rcond=None)
+                    fitted = A @ c
+                    drop = float(2 * np.real(np.vdot(fitted, y)) - np.vdot(fitted, fitted).real)
+                    if acc == "alone":
+                        alone += drop
+                    else:
+                        both += drop
+    return alone, both
+
+
+def _hidden_rigid_motions(model) -> str:
+    """The rigid-body motions of the model that nothing restrains and its channels do
+    not see (``"rotation about x or translation y"``), or ''."""
+    from truthbench.model import RIGID_MOTIONS, rigid_body_motions
+
+    R = rigid_body_motions(model)
+    if R is None:
+        return ""
+    scale_k = max(float(abs(model.K).max()), 1e-300)
+    scale_c = max(float(np.abs(model.C_out).max()), 1e-300)
+    names = []
+    for k, motion in enumerate(RIGID_MOTIONS):
+        r = R[:, k]
+        if not np.any(r):
+            continue
+        free = np.abs(model.K @ r).max() <= 1e-9 * scale_k * np.abs(r).max()
+        unseen = np.abs(model.C_out @ r).max() <= 1e-9 * scale_c * np.abs(r).max()
+        if free and unseen:
+            names.append(f"rigid-body {motion}")
+    return " or ".join(names)
 
 
 def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
-                  data_modes: Sequence, noise: float) -> tuple[MissingMode, ...]:
-    """The data modes the model lacks at these channels (module notes).
+                  noise: float, n_independent: float, threshold: float
+                  ) -> MissingMode | None:
+    """The strongest mode in the data that the model cannot show at these channels, or
+    None (module notes).
+
+    The baseline's residual is scanned for the one pole (:func:`scan_extra_mode`) that
+    explains most of it with free residues. It is a mode the model lacks when it is
+    significant (delta BIC above ``threshold`` with two parameters for the pole and two
+    per transfer function for the residues) and it is not a model mode moved: no mode
+    the channels see lies within 2 % of it, or if one does, refitting that mode's own
+    pole beside it gains less than half of what the new pole gains
+    (:func:`_shift_drop`). A model mode near it that the channels do not see (torsion or
+    lateral bending read by bending channels) is named.
 
     Parameters
     ----------
@@ -268,124 +350,79 @@ def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
     problem : Problem
     current : Fit
         The baseline.
-    data_modes : sequence
-        Per test, its identification (:func:`truthbench.identify.identify_frfs`) or None.
     noise : float
         Noise variance per real weighted value (:func:`noise_variance`).
+    n_independent : float
+        Independent real values (the criterion's n).
+    threshold : float
+        The delta BIC a finding must exceed.
 
     Returns
     -------
-    tuple of MissingMode
-        One per mode, merged over the tests that show it, in order of frequency.
+    MissingMode or None
     """
     from truthbench.model import modal_damping_matrix, modal_table
 
-    found: list[MissingMode] = []
-    start = 0
-    for t, ident in zip(tests, data_modes, strict=True):
-        size = t.H.size
-        resid = (problem.data[start:start + size] - current.model[start:start + size]
-                 ).reshape(t.H.shape) * problem.weights[start:start + size].reshape(t.H.shape)
-        start += size
-        if ident is None or ident.n_modes == 0:
-            continue
-        hw = problem.predictor(current.terms).hardware(current.theta, t.actuators, t.sensors,
-                                                       test=t.name)
-        model, modes = hw.model, hw.modes
-        lo, hi = float(t.freq_hz.min()), float(t.freq_hz.max())
-        elastic = ~modes.rigid
-        w = modes.omega_rad_s
-        xi = np.diag(modal_damping_matrix(model, modes))
-        cm = np.abs(model.C_out @ modes.shapes)  # (n_out, m)
-        bm = np.abs(modes.shapes.T @ model.B)  # (m, n_in)
-        p = np.array([{"displacement": 0, "velocity": 1, "acceleration": 2}[q]
-                      for q in model.quantities])
-        num = (cm * np.where(w > 0, w, 1.0)[None, :] ** p[:, None]).max(axis=0) \
-            * bm.max(axis=1)
-        peak = np.where(elastic & (xi > 0), num / np.maximum(w * xi, 1e-300), 0.0)
-        near = elastic & (modes.freq_hz > lo / 1.5) & (modes.freq_hz < hi * 1.5)
-        top = peak[near].max(initial=0.0)
-        visible = near & (peak > 1e-3 * top) if top > 0 else np.zeros_like(near)
-        hidden = near & ~visible
-        table = None
-        fd = np.asarray(ident.modal.freq_hz, float)
-        zd = np.asarray(ident.modal.damping_ratio, float)
-        keep = (fd >= lo) & (fd <= hi) & (zd > 0) & (zd < 0.1)
-        fd, zd = fd[keep], zd[keep]
-        fm = modes.freq_hz[visible]
-        pairs = _align(fd, fm)
-        matched_d = {a for a, _ in pairs}
-        matched_m = {b for _, b in pairs}
-        loose_m = fm[[k for k in range(len(fm)) if k not in matched_m]]
-        for k in range(len(fd)):
-            if k in matched_d:
-                continue
-            f, z = float(fd[k]), float(zd[k])
-            hid = np.flatnonzero(hidden & (np.abs(modes.freq_hz / f - 1) <= 0.1))
-            if hid.size == 0 and np.any((loose_m > f / 2.5) & (loose_m < 2.5 * f)):
-                continue  # a model mode moved far: the candidates' business
-            band = _mode_band(t, f, z)
-            values = 2 * resid[band].size
-            excess = float(np.sum(np.abs(resid[band]) ** 2)) / noise - values
-            if excess < MODE_SIGNIFICANCE:
-                continue
-            per_out = np.sum(np.abs(resid[band]) ** 2, axis=(0, 2)) / noise / \
-                max(2 * band.sum() * resid.shape[2], 1)
-            chans = tuple(s.label for s, v in zip(t.sensors, per_out, strict=True) if v > 3)
-            name = None
-            if hid.size:
-                if table is None:
-                    table = modal_table(model, modes)
-                r = int(hid[np.argmin(np.abs(modes.freq_hz[hid] - f))])
-                # modal_table lists modes by frequency; rigid modes come first
-                row = min(table, key=lambda row: abs(row["freq_hz"] - modes.freq_hz[r]))
-                name = f"{row['shape']} at {row['freq_hz']:.5g} Hz"
-            sel = t.freq_hz[band]
-            mm = MissingMode(f, z, (t.name,), chans, (float(sel.min()), float(sel.max())),
-                             excess, name)
-            same = next((i for i, x in enumerate(found)
-                         if abs(x.freq_hz / f - 1) < 0.01), None)
-            if same is None:
-                found.append(mm)
-            else:
-                x = found[same]
-                found[same] = replace(x, tests=x.tests + mm.tests,
-                                      channels=tuple(dict.fromkeys(x.channels + chans)),
-                                      band_hz=(min(x.band_hz[0], mm.band_hz[0]),
-                                               max(x.band_hz[1], mm.band_hz[1])),
-                                      excess_chi2=x.excess_chi2 + excess,
-                                      model_mode=x.model_mode or name)
-    return tuple(sorted(found, key=lambda m: m.freq_hz))
+    lo = max(float(t.freq_hz.min()) for t in tests)
+    hi = min(float(t.freq_hz.max()) for t in tests)
+    df = min(float(np.median(np.diff(t.freq_hz))) for t in tests if t.freq_hz.size > 1)
+    # 0 Hz: a rigid-body motion the channels see but the model's channels do not (a roll
+    # read by sensors off the axis), whose only trace in the band is its mass line
+    grid = np.concatenate([[0.0], np.arange(lo, hi + 0.5 * df, df)])
+    found = scan_extra_mode(problem, current, grid)
+    if found is None:
+        return None
+    f_e, zeta_e, drop, per_out = found
+    pairs = sum(len(t.sensors) * len(t.actuators) for t in problem.tests)
+    k = 2 + 2 * pairs
+    n = n_independent
+    if not current.chi2 - drop > 0:
+        return None
+    dbic = n * np.log(current.chi2 / (current.chi2 - drop)) - k * np.log(n)
+    if dbic <= threshold:
+        return None
+    t0 = problem.tests[0]
+    hw = problem.predictor(current.terms).hardware(current.theta, t0.actuators, t0.sensors,
+                                                   test=t0.name)
+    model = hw.model
+    full = model.modes()  # every mode: the hidden ones are named from them
+    w = full.omega_rad_s
+    xi = np.diag(modal_damping_matrix(model, full))
+    cm = np.abs(model.C_out @ full.shapes)
+    bm = np.abs(full.shapes.T @ model.B)
+    num = cm.max(axis=0) * bm.max(axis=1)
+    elastic = ~full.rigid
+    peak = np.where(elastic & (xi > 0), num / np.maximum(w * np.maximum(xi, 1e-300), 1e-300),
+                    0.0)
+    top = peak.max(initial=0.0)
+    visible = elastic & (peak > 1e-3 * top)
+    hidden = elastic & ~visible
+    fv = full.freq_hz[visible]
+    if fv.size:
+        j = int(np.argmin(np.abs(fv - f_e)))
+        if f_e > 0 and abs(fv[j] / f_e - 1) < 0.02:
+            zeta_m = float(xi[visible][j] / (2 * w[visible][j]))
+            alone, both = _shift_drop(problem, current, f_e, zeta_e, float(fv[j]), zeta_m)
+            if both - alone > 0.5 * alone:
+                return None  # a model mode moved: the candidates' business
+    name = None
+    near = np.flatnonzero(hidden & (np.abs(full.freq_hz / f_e - 1) <= 0.1)) if f_e > 0 \
+        else np.zeros(0, int)
+    if f_e == 0.0:
+        name = _hidden_rigid_motions(model) or None
+    elif near.size:
+        r = int(near[np.argmin(np.abs(full.freq_hz[near] - f_e))])
+        row = min(modal_table(model, full), key=lambda x: abs(x["freq_hz"] - full.freq_hz[r]))
+        name = f"{row['shape']} at {row['freq_hz']:.5g} Hz"
+    half = max(5 * zeta_e * f_e, 3 * df)
+    if f_e == 0.0:
+        zeta_e = 0.0
+    chans = tuple(s.label for s, v in zip(t0.sensors, per_out, strict=True)
+                  if v / noise > 2 * (2 + 2 * len(t0.actuators)))
+    return MissingMode(f_e, zeta_e, tuple(t.name for t in tests), chans,
+                       (f_e - half, f_e + half), float(drop / noise), name)
 
 
-def without_bands(tests: Sequence[MeasuredTest], bands: Sequence[tuple[float, float]]
-                  ) -> tuple[MeasuredTest, ...]:
-    """The tests with the lines inside ``bands`` (Hz, inclusive) left out.
-
-    Raises
-    ------
-    DataFormatError
-        A test with no line left.
-    """
-    from truthbench.errors import DataFormatError
-
-    out = []
-    for t in tests:
-        keep = np.ones(t.freq_hz.size, dtype=bool)
-        for lo, hi in bands:
-            keep &= ~((t.freq_hz >= lo) & (t.freq_hz <= hi))
-        if keep.all():
-            out.append(t)
-            continue
-        if not keep.any():
-            raise DataFormatError(f"data set {t.name!r}: every line lies in a band of a "
-                                  f"mode the model lacks; nothing left to compare")
-        lines = t.lines.copy()
-        lines[np.flatnonzero(t.lines)[~keep]] = False
-        out.append(replace(t, lines=lines, H=t.H[keep], sigma=t.sigma[keep]))
-    return tuple(out)
-
-
-__all__ = ["MAX_REFINEMENT", "MESH_TOLERANCE", "MeshCheck", "MissingMode", "missing_modes",
-           "noise_variance", "refined_plant", "renamed_tests", "unexplained_change",
-           "without_bands"]
+__all__ = ["MAX_MISSING", "MAX_REFINEMENT", "MESH_TOLERANCE", "MeshCheck", "MissingMode",
+           "missing_modes", "noise_variance", "refined_plant", "renamed_tests",
+           "scan_extra_mode", "unexplained_change"]

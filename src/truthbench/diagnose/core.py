@@ -56,6 +56,7 @@ from truthbench.diagnose.candidates import (
 )
 from truthbench.diagnose.data import MeasuredTest, prepare
 from truthbench.diagnose.fit import (
+    ExtraModes,
     Fit,
     Problem,
     evaluate,
@@ -108,6 +109,7 @@ class DiagnoseSettings:
     fs_hz: float | None = None
     averages: int | None = None
     identify_modes: bool = True
+    check_modes: bool = True
     mesh_tolerance: float = adequacy.MESH_TOLERANCE
     max_refinement: int = adequacy.MAX_REFINEMENT
     max_iterations: int = 30
@@ -264,8 +266,9 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
         leakage when known), ``window`` and ``fs_hz`` (the segment window of data from
         other tools, whose files do not say, and their sampling rate), ``averages``
         (their number of averages, which with the coherence sets the noise weights; the
-        data's own when they state it), ``identify_modes`` (identify the data's modes:
-        the check for modes the model lacks and the paired-mode views),
+        data's own when they state it), ``identify_modes`` (identify the data's modes
+        for the paired-mode views), ``check_modes`` (look for modes the model lacks:
+        :mod:`.adequacy`),
         ``mesh_tolerance`` and ``max_refinement`` (the mesh check: :mod:`.adequacy`).
 
     Returns
@@ -350,6 +353,7 @@ class _Diagnosis:
         self.placed = placed
         self.tried: list[Tried] = []
         self.thresholds: list[float] = []
+        self.extra_poles: tuple[tuple[float, float], ...] = ()
 
     # ---- the problem ------------------------------------------------------------------
     def problem(self, plant, tests) -> Problem:
@@ -372,9 +376,12 @@ class _Diagnosis:
         levels = [r for t in tests if t.frf.input_rms is not None for r in t.frf.input_rms]
         refs["force"] = float(np.mean(levels)) if levels else 1.0
         self.refs = refs
+        extra = ExtraModes.build(self.extra_poles, ptests, weights) if self.extra_poles \
+            else None
         return Problem(model_plant, dict(self.nominal), ptests, values, weights, self.declared,
                        {k: refs["time"] for k in self.declared if k == "delay_s"}, None,
-                       {"max_iterations": s.max_iterations, "tolerance": s.tolerance})
+                       {"max_iterations": s.max_iterations, "tolerance": s.tolerance},
+                       extra)
 
     def baseline(self, problem: Problem, start=None) -> tuple[Problem, Fit, Fit]:
         """The declared parameters fitted: (problem with the baseline's leakage offsets,
@@ -447,16 +454,19 @@ class _Diagnosis:
         mesh, problem, tests, base, _, sig2 = self.check_mesh(problem, tests, base, [])
         signature = sig2 or signature
         plant = problem.plant
-        missing: tuple = ()
+        missing: list = []
+        threshold = s.threshold + 2.0 * np.log(2.0)
+        for _ in range(adequacy.MAX_MISSING if s.check_modes else 0):
+            m = adequacy.missing_modes(tests, problem, base, mesh.noise_variance,
+                                       problem.n_independent, threshold)
+            if m is None:
+                break
+            missing.append(m)
+            self.extra_poles += ((m.freq_hz, m.damping_ratio),)
+            problem, base, signature = self.baseline(self.problem(plant, tests),
+                                                     start=base.theta)
+        missing = tuple(missing)
         data_modes = _identify(tests) if s.identify_modes else [None] * len(tests)
-        if s.identify_modes:
-            missing = adequacy.missing_modes(tests, problem, base, data_modes,
-                                             mesh.noise_variance)
-            if missing:
-                tests = adequacy.without_bands(tests, [m.band_hz for m in missing])
-                problem, base, signature = self.baseline(self.problem(plant, tests),
-                                                         start=base.theta)
-                data_modes = _identify(tests)
         baseline, before_problem = base, problem
         self._baseline_chi2 = base.chi2
         n = problem.n_independent

@@ -50,6 +50,71 @@ def stack(z: np.ndarray) -> np.ndarray:
     return np.concatenate([z.real, z.imag], axis=0)
 
 
+_POWERS = {"displacement": 0, "velocity": 1, "acceleration": 2, "strain": 0}
+
+
+def mode_basis(s: np.ndarray, freq_hz, zeta: float, power: int) -> np.ndarray:
+    """``s^p / (s^2 + 2 zeta w s + w^2)`` at the complex frequencies ``s`` for each pole
+    frequency in ``freq_hz``: shape (n_lines, n_poles)."""
+    w = 2 * np.pi * np.atleast_1d(np.asarray(freq_hz, float))
+    g = 1.0 / (s[:, None] ** 2 + 2 * zeta * w[None, :] * s[:, None] + w[None, :] ** 2)
+    return g * (s[:, None] ** power)
+
+
+@dataclass(frozen=True, eq=False)
+class ExtraModes:
+    """Modes the model lacks, modelled in the comparison with a free complex residue in
+    every transfer function (variable projection: the residues are eliminated).
+
+    The weighted residual ``w (D - M)`` of each transfer function is replaced by its
+    part orthogonal to the modes' weighted bases ``w s^p / (s^2 + 2 zeta w_k s +
+    w_k^2)``, which is the residual with the best residues added to the model.
+
+    Attributes
+    ----------
+    poles : tuple of (float, float)
+        Frequency (Hz) and damping ratio of each mode.
+    bases : tuple of ndarray
+        Per test, orthonormal weighted bases, shape (n_lines, n_out, n_in, n_poles).
+    """
+
+    poles: tuple[tuple[float, float], ...]
+    bases: tuple[np.ndarray, ...]
+
+    @classmethod
+    def build(cls, poles, tests, weights: np.ndarray) -> ExtraModes:
+        """The bases of ``poles`` on the lines and channels of ``tests`` with the
+        data's ``weights`` (raveled as the problem's)."""
+        bases, start = [], 0
+        for t in tests:
+            shape = (t.freq_hz.size, len(t.sensors), len(t.actuators))
+            W = weights[start:start + int(np.prod(shape))].reshape(shape)
+            start += int(np.prod(shape))
+            s = 2j * np.pi * t.freq_hz + t.decay_rad_s
+            Q = np.zeros(shape + (len(poles),), dtype=complex)
+            for o, x in enumerate(t.sensors):
+                g = np.column_stack([mode_basis(s, f, z, _POWERS[x.quantity])[:, 0]
+                                     for f, z in poles])
+                for i in range(shape[2]):
+                    Q[:, o, i, :], _ = np.linalg.qr(W[:, o, i, None] * g)
+            bases.append(Q)
+        return cls(tuple(poles), tuple(bases))
+
+    def project(self, r: np.ndarray) -> np.ndarray:
+        """The part of weighted residuals (raveled as the problem's data, shape (N,) or
+        (G, N)) that the modes' residues take up."""
+        out = np.zeros_like(r)
+        start = 0
+        for Q in self.bases:
+            size = int(np.prod(Q.shape[:3]))
+            part = r[..., start:start + size].reshape(r.shape[:-1] + Q.shape[:3])
+            coef = np.einsum("foik,...foi->...oik", Q.conj(), part)
+            out[..., start:start + size] = np.einsum("foik,...oik->...foi", Q, coef
+                                                     ).reshape(r.shape[:-1] + (size,))
+            start += size
+        return out
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """The data and the fixed parts of every model fitted to them.
@@ -72,6 +137,8 @@ class Problem:
         Natural size of every additively fitted parameter (the delay, candidates').
     offsets : ndarray, complex, shape (N,), optional
         The estimator's leakage offset ``E[H1] - H`` at a reference fit.
+    extra : ExtraModes, optional
+        Modes the model lacks, modelled in with free residues.
     settings : dict
         ``max_iterations``, ``tolerance``, ``relative_step``.
     """
@@ -85,6 +152,7 @@ class Problem:
     scales: dict
     offsets: np.ndarray | None = None
     settings: dict = field(default_factory=dict)
+    extra: ExtraModes | None = None
 
     @property
     def n(self) -> int:
@@ -109,12 +177,25 @@ class Problem:
                             mode_tolerance=MODE_TOLERANCE, reduced=True)
 
     def predict(self, terms: Sequence[EffectTerm] = ()):
-        """``theta -> model vector`` (exact FRF plus the held leakage offset)."""
+        """``theta -> model vector`` (exact FRF plus the held leakage offset, and the
+        modes the model lacks with their best residues)."""
         pred = self.predictor(terms)
-        if self.offsets is None:
-            return pred.predict_vector
-        off = self.offsets
-        return lambda theta: pred.predict_vector(theta) + off
+        base = pred.predict_vector if self.offsets is None else (
+            lambda theta, off=self.offsets: pred.predict_vector(theta) + off)
+        if self.extra is None:
+            return base
+        w, data, extra = self.weights, self.data, self.extra
+
+        def with_modes(theta):
+            G = base(theta)
+            return G + extra.project(w * (data - G)) / w
+
+        return with_modes
+
+    def deflate(self, r: np.ndarray) -> np.ndarray:
+        """Weighted residuals (shape (N,) or (G, N)) without the part the modes the model
+        lacks take up (unchanged when there are none)."""
+        return r if self.extra is None else r - self.extra.project(r)
 
     def chi2(self, model: np.ndarray) -> float:
         return float(np.sum(np.abs(self.weights * (self.data - model)) ** 2))
@@ -403,6 +484,6 @@ def refit_error(exc: Exception) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-__all__ = ["APPENDED_PARAMETERS", "Fit", "Problem", "candidate_columns", "covariance",
-           "evaluate", "fit", "fit_magnitude", "refit_error", "score", "stack",
+__all__ = ["APPENDED_PARAMETERS", "ExtraModes", "Fit", "Problem", "candidate_columns", "covariance",
+           "evaluate", "fit", "fit_magnitude", "mode_basis", "refit_error", "score", "stack",
            "with_offsets"]

@@ -15,7 +15,8 @@ from truthbench.diagnose.residual import Residual
 from truthbench.diagnose.verdict import Measurement
 from truthbench.plants.base import Plant
 
-TABLES = ("found", "candidates", "channels", "modes", "pairs", "summary")
+TABLES = ("found", "checks", "candidates", "channels", "modes", "pairs", "measurements",
+          "summary")
 
 
 def _clean(value):
@@ -139,10 +140,26 @@ class Diagnosis:
         declared parameters before and after), ``candidates`` (ranked per step, with the
         criterion), ``modes`` (frequency and damping errors before and after), ``channels``
         and ``pairs`` (the other residual views), ``settings``."""
+        holds = self.uncertainty_holds
         return _clean({
+            "verdict": self.verdict,
             "found": [{"effect": f.effect, "parameters": f.parameters,
-                       "options": f.options, "fitted": f.fitted, "std": f.std,
-                       "delta_bic": f.delta_bic, "node": f.node} for f in self.found],
+                       "options": f.options, "fitted": f.fitted,
+                       "std": f.std if holds else None,
+                       "delta_bic": f.delta_bic, "node": f.node, "x_m": f.x_m,
+                       "alternatives": [asdict(a) for a in f.alternatives]}
+                      for f in self.found],
+            "uncertainty_holds": holds,
+            "mesh": None if self.mesh is None else {
+                "n_elements": list(self.mesh.n_elements), "change": list(self.mesh.change),
+                "tolerance": self.mesh.tolerance, "adequate": self.mesh.adequate,
+                "used": self.mesh.used, "summary": self.mesh.summary()},
+            "missing_modes": [{**asdict(m), "summary": m.summary()} for m in self.missing],
+            "dropped": [{"effect": f.effect, "options": f.options,
+                         "parameters": f.parameters, "delta_bic": f.delta_bic}
+                        for f in self.dropped],
+            "measurements": [{**asdict(m), "summary": m.summary()}
+                             for m in self.measurements],
             "frf_error_before": self.frf_error_before,
             "frf_error_after": self.frf_error_after,
             "reduced_chi2_before": self.before.reduced_chi2,
@@ -167,12 +184,17 @@ class Diagnosis:
             "settings": {k: v for k, v in asdict(self.settings).items()},
         })
 
-    def to_pandas(self, table: str = "candidates"):
+    def to_pandas(self, table: str | None = None):
         """A table of the diagnosis.
 
         Parameters
         ----------
-        table : {"found", "candidates", "channels", "modes", "pairs", "summary"}
+        table : {"found", "checks", "candidates", "channels", "modes", "pairs", \
+"measurements", "summary"}, optional
+            ``found`` (the default): the effects found, their values, standard deviations
+            (where :attr:`uncertainty_holds`), evidence and alternatives; ``checks``: the
+            model adequacy checks (mesh, modes the model lacks); ``measurements``: where
+            an ambiguous finding's explanations differ most.
 
         Returns
         -------
@@ -180,13 +202,31 @@ class Diagnosis:
         """
         import pandas as pd
 
+        table = "found" if table is None else table
         if table not in TABLES:
             raise ValueError(f"table must be one of {', '.join(TABLES)}; got {table!r}")
         if table == "found":
+            holds = self.uncertainty_holds
             return pd.DataFrame([{"effect": f.effect, "location": _where(f.options),
+                                  "x_m": f.x_m,
                                   **{f"{k}": v for k, v in f.parameters.items()},
-                                  **{f"std {k}": v for k, v in f.std.items()},
-                                  "delta_bic": f.delta_bic} for f in self.found])
+                                  **{f"std {k}": (v if holds else float("nan"))
+                                     for k, v in f.std.items()},
+                                  "delta_bic": f.delta_bic,
+                                  "or": "; ".join(f"{a.effect} ({_where(a.options)})"
+                                                  for a in f.alternatives)}
+                                 for f in self.found])
+        if table == "checks":
+            rows = []
+            if self.mesh is not None:
+                rows.append({"check": "mesh", "finding": self.mesh.summary(),
+                             "ok": self.mesh.adequate})
+            rows += [{"check": "mode the model lacks", "finding": m.summary(), "ok": False}
+                     for m in self.missing]
+            return pd.DataFrame(rows, columns=["check", "finding", "ok"])
+        if table == "measurements":
+            return pd.DataFrame([{**asdict(m), "summary": m.summary()}
+                                 for m in self.measurements])
         if table == "candidates":
             rows = [{"step": t.step, "candidate": t.label, "effect": t.effect,
                      "delta_bic": t.delta_bic, "screen_chi2_drop": t.screen_drop,
@@ -222,16 +262,19 @@ class Diagnosis:
             k += t.H.size
         return out
 
-    def plot(self, kind: str = "residual", *, test: int = 0):
+    def plot(self, kind: str | None = None, ax=None, *, test: int = 0):
         """A figure of the diagnosis.
 
         Parameters
         ----------
-        kind : {"residual", "frf", "candidates", "modes"}
-            ``residual``: the noise-weighted residual per channel against frequency,
-            before and after; ``frf``: data, baseline and final model of one test;
-            ``candidates``: delta BIC of the refitted candidates per step; ``modes``:
-            frequency errors before and after against mode.
+        kind : {"residual", "frf", "candidates", "modes"}, optional
+            ``residual`` (the default): the noise-weighted residual per channel against
+            frequency, before and after; ``frf``: data, baseline and final model of one
+            test; ``candidates``: delta BIC of the refitted candidates per step;
+            ``modes``: frequency errors before and after against mode. Bands left out
+            as modes the model lacks are shaded.
+        ax : matplotlib.axes.Axes, optional
+            Draw into these axes (figures of one panel only).
         test : int
             The test of ``frf`` and ``residual``.
 
@@ -241,7 +284,7 @@ class Diagnosis:
         """
         from truthbench.diagnose.figures import plot_diagnosis
 
-        return plot_diagnosis(self, kind, test=test)
+        return plot_diagnosis(self, kind, ax=ax, test=test)
 
 
 def _where(options: dict) -> str:

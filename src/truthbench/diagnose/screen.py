@@ -104,6 +104,7 @@ class _Receptances:
         Q, R = np.linalg.qr(current.jacobian)
         self.Q, self.R = Q, R
         self.chi2 = current.chi2
+        self.deflate = problem.deflate
 
     def rcc(self, k: int, idx: tuple[int, ...]) -> np.ndarray:
         """Receptances among the DOFs ``idx`` in test ``k``, shape (n_f, n, n) (kept:
@@ -173,7 +174,7 @@ class _Receptances:
             X = np.linalg.solve(eye + Z @ rcc[None], Z @ rci[None])  # (G, f, d, i)
             Hn = M[None] - chain[None] * np.einsum("fok,gfki->gfoi", hoc, X)
             parts.append((W[None] * (D[None] - Hn)).reshape(len(grid), -1))
-        z = np.concatenate(parts, axis=1)
+        z = self.deflate(np.concatenate(parts, axis=1))
         r = np.concatenate([z.real, z.imag], axis=1)  # (G, n)
         qr = r @ self.Q  # (G, p)
         drops = self.chi2 - (np.einsum("gn,gn->g", r, r) - np.einsum("gp,gp->g", qr, qr))

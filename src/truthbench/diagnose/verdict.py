@@ -153,14 +153,16 @@ def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, st
     new_out, new_in = [], []
     for hw in parts:
         m, modes = hw.model, hw.modes
+        # a new channel passes the chain the measured ones pass: the first output's
+        # filters, gain and delay for a new sensor, the inputs' for the data's inputs
         g_out, g_in = hw.chain_gains(f, decay_rad_s=t.frf.window_decay_rad_s)
-        common = 1.0 if g_out is None else g_out[:, :1]
-        g_in = 1.0 if g_in is None else g_in
+        g_out = np.ones((f.size, len(t.sensors))) if g_out is None else g_out
+        g_in = np.ones((f.size, len(t.actuators))) if g_in is None else g_in
         kw = dict(modes=modes, decay_rad_s=t.frf.window_decay_rad_s)
         sens = m.with_io(C_out=E, quantities=(quantity,) * len(cand)).frf(f, **kw)
-        new_out.append(sens * common[:, :, None] * (g_in[:, None, :] if np.ndim(g_in) else 1.0))
-        exc = m.with_io(B=E.T).frf(f, **kw)
-        new_in.append(exc * (g_out[:, :, None] if g_out is not None else 1.0))
+        new_out.append(sens * g_out[:, :1, None] * g_in[:, None, :])
+        exc = m.with_io(B=E.T).frf(f, **kw)  # (f, n_out, n_cand): force at a new point
+        new_in.append(exc * g_out[:, :, None] * g_in[:, None, :1])
     sep_out = _separation(new_out[0], new_out[1], rho, axis=(0, 2))
     sep_in = _separation(new_in[0], new_in[1], rho, axis=(0, 1))
     start = 0

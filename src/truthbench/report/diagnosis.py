@@ -47,15 +47,49 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
             f"({', '.join(sig(x) for x in diag.thresholds) or '-'} at each step); at most "
             f"{diag.settings.max_effects} effects",
             ""]
-    out += ["## Verdict", ""]
+    out += ["## Can the model resolve the data?", "",
+            "Checked before any effect is tried: a residual the model's own form leaves "
+            "is not reported as an effect it lacks.", ""]
+    if diag.mesh is not None:
+        out += [f"- **Mesh**: {diag.mesh.summary()}."]
+    if diag.missing:
+        out += [f"- **Mode the model lacks**: {m.summary()}." for m in diag.missing]
+    else:
+        out += ["- **Modes**: every mode identified in the data has a model mode its "
+                "channels see."]
+    out += ["", "## Verdict", ""]
+    holds = diag.uncertainty_holds
     if not diag.found:
         out += ["Nothing missing: no candidate effect lowers the residual enough to "
                 "outweigh its added parameters.", ""]
     for f in diag.found:
-        params = ", ".join(f"{k} = {_value(v, f.std.get(k))}" for k, v in f.fitted.items())
+        params = ", ".join(f"{k} = {_value(v, f.std.get(k) if holds else None)}"
+                           for k, v in f.fitted.items())
         effect = ", ".join(f"{k} = {sig(v)}" for k, v in f.parameters.items())
-        out += [f"- **{f.effect}** at {_where(f.options)}: {params} (effect parameters: "
-                f"{effect}); delta BIC {sig(f.delta_bic)}"]
+        where = _where(f.options) + ("" if f.x_m is None else f" (x = {sig(f.x_m, 4)} m)")
+        line = (f"- **{f.effect}** at {where}: {params} (effect parameters: {effect}); "
+                f"delta BIC {sig(f.delta_bic)}")
+        for a in f.alternatives:
+            alt = ", ".join(f"{k} = {sig(v)}" for k, v in a.parameters.items())
+            line += (f"\n  - **or {a.effect}** at {_where(a.options)} ({alt}): delta BIC "
+                     f"{sig(a.delta_bic)}, within {sig(diag.settings.ambiguity_margin)} of "
+                     f"it: these data cannot tell the two apart")
+        out.append(line)
+    if diag.found:
+        out += ["", "Standard deviations (±) are stated because the final residual is at "
+                "the noise level (reduced chi2 within 2 of the noise's)." if holds else
+                "", "" if holds else "No standard deviations are stated: the final "
+                "residual is above the noise level (reduced chi2 "
+                f"{sig(diag.after.reduced_chi2)}), so it is model error, not noise, and a "
+                "covariance scaled by it would not describe the error of the values."]
+    if diag.measurements:
+        out += ["", "### The measurement that would settle it", ""]
+        out += [f"- {m.summary()}" for m in diag.measurements]
+    if diag.dropped:
+        out += ["", "Dropped after a later finding explained the data better "
+                "(backward elimination): " + "; ".join(
+                    f"{f.effect} at {_where(f.options)} (delta BIC {sig(f.delta_bic)} "
+                    f"without it)" for f in diag.dropped)]
     out += ["", "## Error before and after", "",
             "The FRF error is the noise-weighted relative RMS of the residual over every "
             "compared value, `sqrt(sum |w (D - M)|^2 / sum |w D|^2)`, w = 1 / sigma from "
@@ -146,6 +180,9 @@ def write_diagnosis(diag, out_dir: str | Path, *, sources: tuple[str, ...] = ())
     pathlib.Path
         The HTML file.
     """
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only: a report writer never opens a window
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures = {}
