@@ -17,7 +17,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "truthbench"
 
 LAYERS = (
     ("_version", "errors", "_validation", "quantities"),
-    ("fe", "model", "measure", "simulate"),
+    ("fe", "model", "measure", "simulate", "settings"),
     ("plants", "io"),
     ("identify", "effects"),
     ("update", "uncertainty", "placement"),

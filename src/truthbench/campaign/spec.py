@@ -30,6 +30,9 @@ from pydantic_core import PydanticCustomError
 
 from truthbench._validation import is_safe_name, name_rule, read_text
 from truthbench.errors import CampaignError, ModelError
+from truthbench.identify import PLSCFIdentifier
+from truthbench.settings import settings_model
+from truthbench.update import UPDATERS
 
 Direction = Literal["x", "y", "z", "rx", "ry", "rz"]
 # every number of a campaign is finite: TOML has inf and nan literals, and an infinite
@@ -53,7 +56,8 @@ node no farther than 0.1 mm away."""
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False,
+                              use_attribute_docstrings=True)
 
 
 def _one_placement(data: Any, what: str) -> Any:
@@ -362,34 +366,45 @@ class TestSpec(_Strict):
         return _ordered_band(v)
 
 
-class IdentifySpec(_Strict):
-    """Modal identification of every test (pLSCF over the test's band)."""
+class _IdentifyTable(_Strict):
+    """``[identify]``: modal identification of every test (pLSCF over the test's band);
+    the settings are :class:`~truthbench.identify.PLSCFIdentifier`'s."""
 
     enabled: bool = True
-    max_order: Annotated[int, Field(ge=2, le=200)] = 40
+    """Identify the modes of every test (sensitivity localization, the uncertainty model
+    and the pole plot need them)."""
 
 
-class UpdateSpec(_Strict):
+IdentifySpec = settings_model("IdentifySpec", [PLSCFIdentifier], base=_IdentifyTable)
+
+
+class _UpdateTable(_Strict):
+    """``[update]``: which parameters are updated, how, against which lines. The settings
+    of the updaters (:data:`truthbench.update.UPDATERS`) are declared once by their
+    classes; a setting two updaters share (``max_iterations``, ``tolerance``, ...) goes to
+    both."""
+
     method: str | list[str] = "finite_difference"
     """An updater name from :data:`truthbench.update.UPDATERS`, a list of them (run side
     by side; the first is the primary), or "none"."""
     parameters: list[str] = Field(default_factory=list)
+    """The model parameters to update (plant parameters, ``<name>@<group>`` for one
+    group, or appended dynamics such as ``delay_s``)."""
     band_hz: tuple[NonNegFloat, PositiveFloat] | None = None
+    """The update uses the lines of every test inside this band (default: each test's
+    excited band); it must lie inside the span of the tests' bands."""
     weighting: Literal["none", "coherence", "inverse_magnitude"] = "none"
-    max_iterations: Annotated[int, Field(ge=1)] = 30
-    tolerance: PositiveFloat = 1e-7
-    relative_step: Annotated[float, Field(gt=0, lt=0.1)] = 1e-4
-    scheme: Literal["central", "forward"] = "central"
-    c_zeta: NonNegFloat = 1.0
-    """Sensitivity localization: weight of the damping-ratio rows (used when a damping
-    parameter is updated; identified damping is less accurate than frequency)."""
-    mac_min: Annotated[float, Field(ge=0, le=1)] = 0.8
-    """Sensitivity localization: least MAC of a measured-model mode pair."""
+    """Weight of every FRF value in the finite-difference cost: none, the inverse of the
+    H1 standard deviation from the coherence, or the inverse magnitude (relative
+    errors)."""
 
     @field_validator("band_hz")
     @classmethod
     def _band_ordered(cls, v):
         return None if v is None else _ordered_band(v)
+
+
+UpdateSpec = settings_model("UpdateSpec", UPDATERS.values(), base=_UpdateTable)
 
 
 class UncertaintySpec(_Strict):
@@ -808,7 +823,7 @@ def _check_references(spec: CampaignSpec) -> None:
                 raise CampaignError(f"{src}: key '{where}.support': {exc}") from None
     _check_geometry_effects(spec, plant)
     check_refinement(spec, effects)
-    from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater
+    from truthbench.update import APPENDED_PARAMETERS, make_updater
 
     for key in spec.update.parameters:
         if key not in APPENDED_PARAMETERS:

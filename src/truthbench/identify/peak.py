@@ -41,11 +41,13 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from truthbench.identify._common import check_freq_frf, frf_power, readonly, select_band
 from truthbench.identify.modal import ModalParameters
+from truthbench.settings import Configurable, setting
 
 
 @dataclass(frozen=True)
@@ -99,11 +101,34 @@ def _crossing(f: np.ndarray, y: np.ndarray, k: int, level: float, step: int) -> 
     return float("nan")
 
 
+@dataclass(frozen=True, kw_only=True)
+class PeakIdentifier(Configurable):
+    """The registered identifier ``"peak"``: peak picking with half-power damping
+    (:func:`peak_picking`, whose defaults are these), configured by its settings.
+
+    Calling it, ``identifier(freq_hz, frf, *, frf_type="displacement",
+    freq_range_hz=None)``, returns the :class:`ModalParameters`."""
+
+    name: ClassVar[str] = "peak"
+
+    n_modes: int | None = setting(
+        None, "Keep the n_modes most prominent peaks (unset: every peak above "
+        "min_prominence).", kind="int", low=1)
+    min_prominence: float = setting(
+        0.02, "Smallest peak prominence, a fraction of the peak indicator's maximum.",
+        low=0, low_open=True, high=1)
+
+    def __call__(self, freq_hz, frf, *, frf_type: str = "displacement",
+                 freq_range_hz: tuple[float, float] | None = None) -> ModalParameters:
+        return peak_picking(freq_hz, frf, frf_type=frf_type, freq_range_hz=freq_range_hz,
+                            **self.settings()).modal
+
+
 def peak_picking(
     freq_hz,
     frf,
     *,
-    n_modes: int | None = None,
+    n_modes: int | None = PeakIdentifier.n_modes,
     frf_type: str = "displacement",
     channel: tuple[int, int] | None = None,
     freq_range_hz: tuple[float, float] | None = None,
@@ -111,7 +136,7 @@ def peak_picking(
     reference: str | float = "static",
     shape_part: str = "imag",
     input_index: int = 0,
-    min_prominence: float = 0.02,
+    min_prominence: float = PeakIdentifier.min_prominence,
 ) -> PeakPickingResult:
     """Pick resonance peaks and read frequency, damping and shape from them.
 

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -60,6 +61,7 @@ from truthbench.errors import IdentifiabilityError
 from truthbench.identify._common import check_freq_frf, frf_power, readonly, select_band
 from truthbench.identify.lsfd import LSFDResult, lsfd, refine_poles
 from truthbench.identify.modal import ModalParameters, modal_from_poles
+from truthbench.settings import Configurable, setting
 
 #: Fewest orders a cluster of stable poles must come from to be a mode.
 MIN_STABLE_ORDERS = 3
@@ -97,6 +99,27 @@ class StabilityCriteria:
                 raise ValueError(f"The '{name}' parameter must be positive; got {v!r}.")
         if not 0 <= self.mac_min <= 1:
             raise ValueError(f"The 'mac_min' parameter must lie in [0, 1]; got {self.mac_min!r}.")
+
+
+@dataclass(frozen=True, kw_only=True)
+class PLSCFIdentifier(Configurable):
+    """The registered identifier ``"plscf"``: pLSCF, automatic pole selection and LSFD
+    (:func:`identify_plscf`, whose defaults are these), configured by its settings.
+
+    Calling it, ``identifier(freq_hz, frf, *, frf_type="displacement",
+    freq_range_hz=None)``, returns the :class:`ModalParameters`."""
+
+    name: ClassVar[str] = "plscf"
+
+    max_order: int = setting(
+        40, "Highest pLSCF model order (order n gives n x n_in poles); a rule of thumb: "
+        "max_order x n_in about 2-4 times twice the number of modes in the band.",
+        low=2, high=200)
+
+    def __call__(self, freq_hz, frf, *, frf_type: str = "displacement",
+                 freq_range_hz: tuple[float, float] | None = None) -> ModalParameters:
+        return identify_plscf(freq_hz, frf, frf_type=frf_type, freq_range_hz=freq_range_hz,
+                              **self.settings()).modal
 
 
 def _ro_tuple(arrays) -> tuple[np.ndarray, ...]:
@@ -395,7 +418,7 @@ def _mac_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def plscf_stabilization(
     freq_hz,
     frf,
-    max_order: int = 30,
+    max_order: int = PLSCFIdentifier.max_order,
     *,
     min_order: int = 1,
     freq_range_hz: tuple[float, float] | None = None,
@@ -752,7 +775,7 @@ def identify_plscf(
     freq_hz,
     frf,
     *,
-    max_order: int = 30,
+    max_order: int = PLSCFIdentifier.max_order,
     min_order: int = 1,
     frf_type: str = "displacement",
     freq_range_hz: tuple[float, float] | None = None,

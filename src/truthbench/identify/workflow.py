@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -44,7 +43,9 @@ import numpy as np
 
 from truthbench._validation import readonly
 from truthbench.identify.modal import ModalParameters, modal_from_poles, poles_from_modal
-from truthbench.identify.registry import get_identifier
+from truthbench.identify.peak import PeakIdentifier
+from truthbench.identify.plscf import PLSCFIdentifier
+from truthbench.identify.registry import Identifier, make_identifier
 from truthbench.measure.frfdata import FRFData
 from truthbench.quantities import MOTION_QUANTITIES
 
@@ -344,13 +345,6 @@ def _resolve_band(data: FRFData, band_hz, source: str) -> tuple[float, float, st
     return lo, hi, rule
 
 
-#: Options each registered identifier takes from :func:`identify_frfs`.
-_METHOD_OPTIONS: dict[str, Callable[[int, int | None], dict]] = {
-    "plscf": lambda max_order, n_modes: {"max_order": max_order},
-    "peak": lambda max_order, n_modes: {"n_modes": n_modes},
-}
-
-
 def _one_type(data: FRFData) -> FRFData:
     """``data`` with outputs of one motion quantity (strain as displacement; mixed
     quantities as displacement-equivalent)."""
@@ -363,9 +357,9 @@ def identify_frfs(
     data: FRFData,
     *,
     method: str = "plscf",
-    max_order: int = 30,
+    max_order: int | None = PLSCFIdentifier.max_order,
     band_hz: tuple[float, float] | None = None,
-    n_modes: int | None = None,
+    n_modes: int | None = PeakIdentifier.n_modes,
     source: str = "",
 ) -> DatasetIdentification:
     """Identify modal parameters from one :class:`FRFData`.
@@ -375,8 +369,9 @@ def identify_frfs(
     data : FRFData
     method : {"plscf", "peak"}
         A registered identifier (:data:`truthbench.identify.IDENTIFIERS`).
-    max_order : int
-        Highest pLSCF order.
+    max_order : int, optional
+        Highest pLSCF order (:class:`~truthbench.identify.PLSCFIdentifier`; None: its
+        default).
     band_hz : (float, float), optional
         Band in Hz; must lie inside the data. Default: :func:`default_band` (the data's
         excited band, else its coherent lines, else every line above 0 Hz).
@@ -394,13 +389,15 @@ def identify_frfs(
     Raises
     ------
     ValueError
-        Unknown method, band outside the data or with too few usable lines.
+        Unknown method, a bad setting, band outside the data or with too few usable
+        lines.
     """
-    if method not in _METHOD_OPTIONS:
-        get_identifier(method)  # raises with the list of registered names
-        raise ValueError(f"identify_frfs has no options for method {method!r}; expected "
-                         f"one of {sorted(_METHOD_OPTIONS)}")
-    identifier = get_identifier(method)
+    identifier = make_identifier(method, {"max_order": max_order, "n_modes": n_modes})
+    return _identify(data, identifier, band_hz, source)
+
+
+def _identify(data: FRFData, identifier: Identifier, band_hz, source: str
+              ) -> DatasetIdentification:
     data = _one_type(data)
     where = source or data.name
     *band, rule = _resolve_band(data, band_hz, where)
@@ -415,7 +412,7 @@ def identify_frfs(
             f"{where}: {int(np.count_nonzero(keep & ~finite))} line(s) of "
             f"{data.name!r} in the band {band[0]:g}-{band[1]:g} Hz hold non-finite FRF "
             f"values (e.g. a singular input spectrum); they are left out",
-            stacklevel=2,
+            stacklevel=3,
         )
     keep &= finite
     if np.count_nonzero(keep) < MIN_BAND_LINES:
@@ -424,8 +421,7 @@ def identify_frfs(
             f"{int(np.count_nonzero(keep))} usable (finite, above 0 Hz) lines of "
             f"{data.name!r}; expected at least {MIN_BAND_LINES}"
         )
-    raw = identifier(f[keep], H[keep], frf_type=data.frf_type, freq_range_hz=band,
-                     **_METHOD_OPTIONS[method](max_order, n_modes))
+    raw = identifier(f[keep], H[keep], frf_type=data.frf_type, freq_range_hz=band)
     order = np.argsort(raw.freq_hz)
     labelled = ModalParameters(
         freq_hz=raw.freq_hz[order], damping_ratio=raw.damping_ratio[order],
@@ -450,9 +446,9 @@ def identify_file(
     path: str | PathLike,
     *,
     method: str = "plscf",
-    max_order: int = 30,
+    max_order: int | None = PLSCFIdentifier.max_order,
     band_hz: tuple[float, float] | None = None,
-    n_modes: int | None = None,
+    n_modes: int | None = PeakIdentifier.n_modes,
     **read_options: Any,
 ) -> IdentifyReport:
     """Load a data file (:func:`truthbench.io.load_frf`) and identify every FRFData in it.
@@ -464,8 +460,9 @@ def identify_file(
         (``.lvm``).
     method : {"plscf", "peak"}
         Registered identifier.
-    max_order : int
-        Highest pLSCF order (``>= 2``).
+    max_order : int, optional
+        Highest pLSCF order (:class:`~truthbench.identify.PLSCFIdentifier`; None: its
+        default).
     band_hz : (float, float), optional
         Identification band, Hz, inside the data (default: per dataset, see the module
         notes).
@@ -493,16 +490,12 @@ def identify_file(
     """
     from truthbench.io import load_frf
 
-    if isinstance(max_order, bool) or not isinstance(max_order, int | np.integer) \
-            or max_order < 2:
-        raise ValueError(f"max_order must be an integer >= 2; got {max_order!r}")
+    identifier = make_identifier(method, {"max_order": max_order, "n_modes": n_modes})
     p = Path(path)
     frfs = load_frf(p, **read_options)
-    results = tuple(
-        identify_frfs(d, method=method, max_order=int(max_order), band_hz=band_hz,
-                      n_modes=n_modes, source=str(p))
-        for d in frfs
-    )
+    results = tuple(_identify(d, identifier, band_hz, str(p)) for d in frfs)
     fmt = _FORMATS.get(p.suffix.lower(), p.suffix.lower().lstrip("."))
-    return IdentifyReport(path=p, file_format=fmt, method=method, max_order=int(max_order),
+    order = PLSCFIdentifier.max_order if max_order is None else max_order
+    return IdentifyReport(path=p, file_format=fmt, method=method,
+                          max_order=identifier.settings().get("max_order", order),
                           datasets=results)

@@ -23,10 +23,15 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from truthbench.settings import Configurable, setting
 from truthbench.update.identifiability import check_identifiable, check_overdetermined
+
+if TYPE_CHECKING:
+    from truthbench.update.registry import UpdateProblem
 
 
 @dataclass(frozen=True)
@@ -71,6 +76,65 @@ class UpdateResult:
 
     def as_dict(self) -> dict[str, float]:
         return dict(zip(self.names, self.values.tolist(), strict=True))
+
+
+@dataclass(frozen=True, kw_only=True)
+class IterationSettings(Configurable):
+    """The settings every iterated updater shares, declared once: the campaign's
+    ``[update]`` table gives each of them to every updater that runs."""
+
+    needs: ClassVar[frozenset[str]] = frozenset()
+
+    max_iterations: int = setting(30, "Largest number of parameter updates.", low=1)
+    tolerance: float = setting(
+        1e-7, "Convergence: the update stops when an iteration changes no parameter by "
+        "more than this (a relative change, the step in log-parameters; additive "
+        "parameters in units of their scale).", low=0, low_open=True)
+    rcond: float = setting(
+        1e-4, "Relative singular value of the column-scaled, weighted sensitivity matrix "
+        "below which parameters are declared inseparable (at 1e-4 the data's noise would "
+        "be amplified ten thousand times along that direction).", low=0, low_open=True,
+        high=1, high_open=True)
+    max_step: float = setting(
+        0.5, "Trust region: the largest change of any log-parameter in one iteration "
+        "(0.5 is a factor of 1.65).", low=0, low_open=True)
+
+    def _require(self, problem: UpdateProblem, hint: str = "") -> None:
+        missing = problem.missing(sorted(self.needs))
+        if missing:
+            raise ValueError(f"updater {self.name!r} needs {missing} in the UpdateProblem; "
+                             f"got None for {'it' if len(missing) == 1 else 'them'}{hint}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class FiniteDifferenceUpdater(IterationSettings):
+    """Finite-difference FRF updating (METHOD 5.1, :func:`finite_difference_update`,
+    whose defaults are these). Needs ``predict_frf``, ``frf_data`` and ``n_pairs`` of the
+    :class:`~truthbench.update.UpdateProblem`; uses ``frf_weights`` and ``additive``.
+    Updates any parameter the predictor can vary."""
+
+    name: ClassVar[str] = "finite_difference"
+    needs: ClassVar[frozenset[str]] = frozenset({"frf"})
+
+    relative_step: float = setting(
+        1e-4, "Finite-difference step, relative to the parameter (or in units of an "
+        "additive parameter's scale).", low=0, low_open=True, high=0.1, high_open=True)
+    scheme: str = setting("central", "Finite differences: central (second order) or "
+                          "forward (half the model evaluations).",
+                          choices=("central", "forward"))
+
+    def unsupported(self, kinds: Mapping[str, str]) -> dict[str, str]:
+        """Parameters it cannot update, with the reason: none."""
+        return {}
+
+    def update(self, problem: UpdateProblem) -> UpdateResult:
+        """Update ``problem.names`` against the problem's FRFs."""
+        self._require(problem)
+        return finite_difference_update(
+            problem.predict_frf, problem.frf_data, problem.theta0, problem.names,
+            n_pairs=int(problem.n_pairs), weights=problem.frf_weights,
+            additive=dict(problem.additive) if problem.additive else None,
+            **self.settings())
 
 
 def _stack(z: np.ndarray) -> np.ndarray:
@@ -151,12 +215,12 @@ def finite_difference_update(
     *,
     n_pairs: int | None,
     weights: np.ndarray | None = None,
-    max_iterations: int = 20,
-    tolerance: float = 1e-6,
-    relative_step: float = 1e-4,
-    scheme: str = "central",
-    rcond: float = 1e-4,
-    max_step: float = 0.5,
+    max_iterations: int = FiniteDifferenceUpdater.max_iterations,
+    tolerance: float = FiniteDifferenceUpdater.tolerance,
+    relative_step: float = FiniteDifferenceUpdater.relative_step,
+    scheme: str = FiniteDifferenceUpdater.scheme,
+    rcond: float = FiniteDifferenceUpdater.rcond,
+    max_step: float = FiniteDifferenceUpdater.max_step,
     additive: Mapping[str, float] | None = None,
     jacobian: str | Callable | None = "auto",
 ) -> UpdateResult:
@@ -183,6 +247,7 @@ def finite_difference_update(
     max_iterations : int
     tolerance : float
         Stop when the largest relative parameter change of an iteration is below it.
+        (The defaults of these settings are :class:`FiniteDifferenceUpdater`'s.)
     relative_step, scheme
         Finite differences, see :func:`sensitivity_matrix`.
     rcond : float
