@@ -28,7 +28,8 @@ from truthbench.identify import (
     mac,
 )
 from truthbench.identify import workflow as identify
-from truthbench.io import ladisk_beam_impact, write_uff58_frf, write_uff58_time
+from truthbench.io import ladisk_beam_impact
+from truthbench.io._uff58 import write_uff58_frf, write_uff58_time
 from truthbench.measure import Channel, FRFData, frfs_from_time
 from truthbench.simulate import add_sensor_noise, simulate_lti
 
