@@ -43,6 +43,7 @@ from typing import Any, Literal
 import numpy as np
 
 from truthbench.errors import IdentifiabilityError
+from truthbench.measure.leakage import Estimator
 from truthbench.measure.spectra import (
     Detrend,
     SpectralMatrices,
@@ -51,7 +52,7 @@ from truthbench.measure.spectra import (
     _read_only,
     _SettingError,
 )
-from truthbench.measure.windows import WindowSpec
+from truthbench.measure.windows import WINDOW_NAMES, WindowSpec
 
 __all__ = [
     "ESTIMATORS",
@@ -162,6 +163,30 @@ class FRFEstimate:
     def df_hz(self) -> float:
         """Line spacing ``fs_hz / nperseg``, Hz."""
         return self.fs_hz / self.nperseg
+
+    def to_estimator(self, *, period_samples: int | None = None) -> Estimator:
+        """How this estimate was made, as the :class:`~truthbench.measure.leakage.Estimator`
+        an :class:`~truthbench.measure.FRFData` carries: window, segment (``nperseg``),
+        averages, rate and overlap.
+
+        Parameters
+        ----------
+        period_samples : int, optional
+            The input's period, samples, when it was periodic (a whole number of
+            segments); None for a random input.
+
+        Raises
+        ------
+        ValueError
+            The window is not a plain named window (a parametrised one, an array, or a
+            separate input window), which the leakage model cannot describe.
+        """
+        if self.window not in WINDOW_NAMES:
+            raise ValueError(f"FRFEstimate: the window {self.window!r} is not one of "
+                             f"{', '.join(WINDOW_NAMES)} without a parameter; the leakage "
+                             f"model (Estimator) describes only those")
+        return Estimator(self.window, self.nperseg, self.fs_hz, period_samples,
+                         averages=self.n_averages, overlap_samples=self.noverlap)
 
     def to_pandas(self) -> Any:
         """Return the estimate as a long (tidy) :class:`pandas.DataFrame`.

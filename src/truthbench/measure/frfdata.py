@@ -156,7 +156,8 @@ class FRFData:
         Ordinary coherence in [0, 1], or None when the source has none.
     n_averages : int, optional
         Segments averaged in the estimate (the H1 variance scales with 1 / n_averages),
-        or None when unknown.
+        or None when unknown; the estimator's ``averages`` when it has them (given both,
+        they must agree).
     band_hz : (float, float), optional
         The usable band known from the source (excited band, force-spectrum rule), Hz.
     excitation : {"frf", "impact", "random"}
@@ -164,8 +165,10 @@ class FRFData:
     window_decay_rad_s : float
         Decay rate (1/s) an exponential window added to every pole; 0 if none.
     estimator : Estimator, optional
-        The averaged estimate's window and segments, when known (a model is compared
-        with the data through them, :mod:`truthbench.measure.leakage`).
+        How the averaged estimate was made (window, segment, averages, rate, overlap),
+        when known: a model is compared with the data through it
+        (:mod:`truthbench.measure.leakage`). Its ``averages`` and ``n_averages`` are one
+        number: a missing one is filled from the other.
     input_rms : tuple of float, optional
         The RMS of each input over the record (N or N m), when known: the excitation
         level, which amplitude-dependent effects (friction) depend on.
@@ -228,6 +231,19 @@ class FRFData:
                 raise ValueError(f"{where}: 'n_averages' must be a positive integer; got "
                                  f"{self.n_averages!r}")
             object.__setattr__(self, "n_averages", n)
+        if self.estimator is not None:
+            if not isinstance(self.estimator, Estimator):
+                raise ValueError(f"{where}: 'estimator' must be an Estimator; got "
+                                 f"{type(self.estimator).__name__}")
+            known = self.estimator.averages
+            if known is None and self.n_averages is not None:
+                object.__setattr__(self, "estimator",
+                                   replace(self.estimator, averages=self.n_averages))
+            elif self.n_averages is None:
+                object.__setattr__(self, "n_averages", known)
+            elif known != self.n_averages:
+                raise ValueError(f"{where}: 'n_averages' ({self.n_averages}) and the "
+                                 f"estimator's averages ({known}) must agree")
         check_choice("excitation", self.excitation, EXCITATIONS, where=where)
         if self.input_rms is not None:
             rms = tuple(float(v) for v in self.input_rms)
