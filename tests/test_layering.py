@@ -17,7 +17,8 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "truthbench"
 
 LAYERS = (
     ("_version", "errors", "_validation", "quantities"),
-    ("fe", "model", "measure", "simulate", "settings"),
+    ("settings", "presentation"),
+    ("fe", "model", "measure", "simulate"),
     ("plants", "io"),
     ("identify", "effects"),
     ("update", "uncertainty", "placement"),

@@ -191,6 +191,25 @@ def harden(parser: argparse.ArgumentParser) -> None:
                 action.type = OPTION_TYPES[opt]
 
 
+def files_only() -> None:
+    """Choose matplotlib's Agg backend: the command writes figure files and never opens a
+    window (the library never chooses a backend). Call it before any figure is made."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
+def save_figure(fig, path, *, dpi: int = 120):
+    """Write ``fig`` to ``path`` (its folder made if missing) and close it."""
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
 def _strict(value):
     """``value`` with every non-finite float replaced by None (JSON null)."""
     if isinstance(value, float):

@@ -47,12 +47,16 @@ import numpy as np
 
 from truthbench.identify._common import check_freq_frf, frf_power, readonly, select_band
 from truthbench.identify.modal import ModalParameters
+from truthbench.presentation import Presentable
 from truthbench.settings import Configurable, setting
 
 
 @dataclass(frozen=True)
-class PeakPickingResult:
+class PeakPickingResult(Presentable):
     """What :func:`peak_picking` found.
+
+    Table ``"modes"`` (:meth:`to_pandas`): one row per peak with both damping readings.
+    Figure ``"shapes"`` (:meth:`plot`): the shapes.
 
     Attributes
     ----------
@@ -68,6 +72,9 @@ class PeakPickingResult:
         ``Q``.
     """
 
+    TABLES = ("modes",)
+    PLOTS = ("shapes",)
+
     modal: ModalParameters
     peak_index: np.ndarray
     damping_half_power: np.ndarray
@@ -77,6 +84,20 @@ class PeakPickingResult:
     def __post_init__(self):
         for name in ("peak_index", "damping_half_power", "damping_amplification", "amplification"):
             object.__setattr__(self, name, readonly(getattr(self, name)))
+
+    def _table_modes(self):
+        """One row per peak: the modes' table (:class:`ModalParameters`) with
+        ``peak_index``, ``damping_half_power``, ``damping_amplification`` and
+        ``amplification``."""
+        df = self.modal.to_pandas("modes")
+        for name in ("peak_index", "damping_half_power", "damping_amplification",
+                     "amplification"):
+            df[name] = getattr(self, name)
+        return df
+
+    def _plot_shapes(self, ax):
+        """The shapes read at the peaks."""
+        return self.modal.plot("shapes", ax)
 
 
 def _parabola(y0: float, y1: float, y2: float) -> tuple[float, float]:

@@ -61,6 +61,7 @@ from truthbench.errors import IdentifiabilityError
 from truthbench.identify._common import check_freq_frf, frf_power, readonly, select_band
 from truthbench.identify.lsfd import LSFDResult, lsfd, refine_poles
 from truthbench.identify.modal import ModalParameters, modal_from_poles
+from truthbench.presentation import Presentable, figure_axes
 from truthbench.settings import Configurable, setting
 
 #: Fewest orders a cluster of stable poles must come from to be a mode.
@@ -127,7 +128,7 @@ def _ro_tuple(arrays) -> tuple[np.ndarray, ...]:
 
 
 @dataclass(frozen=True)
-class StabilizationDiagram:
+class StabilizationDiagram(Presentable):
     """Poles of every model order and their stability flags.
 
     Attributes
@@ -147,6 +148,9 @@ class StabilizationDiagram:
         Band of the data used.
     criteria : StabilityCriteria
     """
+
+    TABLES = ("poles",)
+    PLOTS = ("diagram",)
 
     orders: np.ndarray
     poles: tuple
@@ -180,16 +184,10 @@ class StabilizationDiagram:
             )
         )
 
-    def to_pandas(self):
-        """Long table, one row per pole and order.
-
-        Returns
-        -------
-        pandas.DataFrame
-            Columns ``order``, ``freq_hz``, ``damping_ratio``, ``pole_real_rad_s``,
-            ``pole_imag_rad_s``, ``stable_freq``, ``stable_damping``, ``stable_vector``,
-            ``stable``, ``physical``.
-        """
+    def _table_poles(self):
+        """Long table, one row per pole and order: columns ``order``, ``freq_hz``,
+        ``damping_ratio``, ``pole_real_rad_s``, ``pole_imag_rad_s``, ``stable_freq``,
+        ``stable_damping``, ``stable_vector``, ``stable``, ``physical``."""
         import pandas as pd
 
         frames = []
@@ -214,7 +212,8 @@ class StabilizationDiagram:
             )
         return pd.concat(frames, ignore_index=True)
 
-    def plot(self, ax=None, *, freq_hz=None, frf=None, selected: ModalParameters | None = None):
+    def _plot_diagram(self, ax, *, freq_hz=None, frf=None,
+                      selected: ModalParameters | None = None):
         """Draw the stabilization diagram (order against frequency).
 
         Markers: open circle, a new pole; dot, stable in frequency; triangle, stable in
@@ -232,12 +231,9 @@ class StabilizationDiagram:
 
         Returns
         -------
-        matplotlib Axes
+        matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(8, 5))
+        fig, (ax,) = figure_axes(ax, figsize=(8, 5))
         styles = [
             ("new", dict(marker="o", mfc="none", mec="0.6", ms=4, ls="none")),
             ("freq", dict(marker=".", color="tab:blue", ms=5, ls="none")),
@@ -283,7 +279,7 @@ class StabilizationDiagram:
             ax2.set_ylabel("sum |H|")
             ax.set_zorder(ax2.get_zorder() + 1)  # markers above the FRF curve
             ax.patch.set_visible(False)
-        return ax
+        return fig
 
 
 @dataclass(frozen=True)
@@ -335,8 +331,12 @@ class PoleSelection:
 
 
 @dataclass(frozen=True)
-class PLSCFResult:
+class PLSCFResult(Presentable):
     """Everything :func:`identify_plscf` produced.
+
+    Tables (:meth:`to_pandas`): ``"modes"`` the selected modes, ``"poles"`` every pole of
+    the diagram. Figures (:meth:`plot`): ``"diagram"`` the stabilization diagram with the
+    selected frequencies, ``"shapes"`` the shapes.
 
     Attributes
     ----------
@@ -349,10 +349,30 @@ class PLSCFResult:
         Residues and residual terms (use for mass normalisation or reconstruction).
     """
 
+    TABLES = ("modes", "poles")
+    PLOTS = ("diagram", "shapes")
+
     modal: ModalParameters
     diagram: StabilizationDiagram
     selection: PoleSelection
     lsfd: LSFDResult
+
+    def _table_modes(self):
+        """One row per selected mode (:class:`ModalParameters`)."""
+        return self.modal.to_pandas("modes")
+
+    def _table_poles(self):
+        """One row per pole and order of the diagram."""
+        return self.diagram.to_pandas("poles")
+
+    def _plot_diagram(self, ax, **options):
+        """The stabilization diagram, the selected frequencies marked (options
+        ``freq_hz``, ``frf``: an FRF drawn behind it)."""
+        return self.diagram.plot("diagram", ax, selected=self.modal, **options)
+
+    def _plot_shapes(self, ax):
+        """The selected modes' shapes."""
+        return self.modal.plot("shapes", ax)
 
 
 def _lag_sums(theta: np.ndarray, H: np.ndarray, p: int):

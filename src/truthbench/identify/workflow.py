@@ -47,6 +47,7 @@ from truthbench.identify.peak import PeakIdentifier
 from truthbench.identify.plscf import PLSCFIdentifier
 from truthbench.identify.registry import Identifier, make_identifier
 from truthbench.measure.frfdata import FRFData
+from truthbench.presentation import Presentable, figure_axes
 from truthbench.quantities import MOTION_QUANTITIES
 
 __all__ = [
@@ -80,8 +81,12 @@ COHERENCE_FALSE_ALARM = 0.01
 
 
 @dataclass(frozen=True, eq=False)
-class DatasetIdentification:
+class DatasetIdentification(Presentable):
     """The modal parameters identified from one :class:`FRFData`.
+
+    Table ``"modes"`` (:meth:`to_pandas`): one row per mode (:meth:`table` without the
+    shapes). Figure ``"frf"`` (:meth:`plot`): ``sum |H|`` over the channels in the band
+    with the identified frequencies marked.
 
     Attributes
     ----------
@@ -101,6 +106,9 @@ class DatasetIdentification:
         Where ``band_hz`` came from (see :func:`default_band`).
     """
 
+    TABLES = ("modes",)
+    PLOTS = ("frf",)
+
     data: FRFData
     band_hz: tuple[float, float]
     modal: ModalParameters
@@ -117,7 +125,7 @@ class DatasetIdentification:
         damping_ratio_uncorrected, peak_magnitude and, for several outputs, ``shape``
         (real part of the shape scaled to a largest entry of 1, one value per output)."""
         rows = []
-        shapes = np.asarray(self.modal.shapes)
+        shapes = self.modal.aligned_shapes().real
         for r in range(self.n_modes):
             row = {
                 "mode": r + 1,
@@ -127,9 +135,36 @@ class DatasetIdentification:
                 "peak_magnitude": float(self.peak_magnitude[r]),
             }
             if shapes.shape[0] > 1:
-                row["shape"] = [float(v) for v in _real_shape(shapes[:, r])]
+                row["shape"] = [float(v) for v in shapes[:, r]]
             rows.append(row)
         return rows
+
+    def _table_modes(self):
+        """One row per mode: mode (1-based), freq_hz, damping_ratio,
+        damping_ratio_uncorrected, peak_magnitude."""
+        import pandas as pd
+
+        return pd.DataFrame([{k: v for k, v in row.items() if k != "shape"}
+                             for row in self.table()], columns=_MODE_COLUMNS)
+
+    def _plot_frf(self, ax):
+        """``sum |H|`` over the channels against frequency inside the band, the
+        identified frequencies marked."""
+        fig, (ax,) = figure_axes(ax, figsize=(7, 3.5))
+        self._draw(ax)
+        fig.tight_layout()
+        return fig
+
+    def _draw(self, ax) -> None:
+        f, H = self.data.freq_hz, self.data.H
+        inside = (f >= self.band_hz[0]) & (f <= self.band_hz[1])
+        ax.semilogy(f[inside], np.abs(H[inside]).reshape(int(inside.sum()), -1).sum(axis=1),
+                    lw=0.8, color="0.3")
+        for fr in self.modal.freq_hz:
+            ax.axvline(fr, color="tab:red", lw=0.6, ls="--")
+        ax.set_title(f"{self.data.name}: {self.n_modes} modes", fontsize="medium")
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel(f"sum |H| ({self.data.frf_type})")
 
     def strongest_ratios(self, count: int = 3) -> np.ndarray | None:
         """Frequency ratios to the lowest of the ``count`` strongest modes.
@@ -146,8 +181,11 @@ class DatasetIdentification:
 
 
 @dataclass(frozen=True, eq=False)
-class IdentifyReport:
+class IdentifyReport(Presentable):
     """What :func:`identify_file` found in one file.
+
+    Table ``"modes"`` (:meth:`to_pandas`): one row per (dataset, mode). Figure ``"frf"``
+    (:meth:`plot`): one panel per dataset (:class:`DatasetIdentification`).
 
     Attributes
     ----------
@@ -160,6 +198,9 @@ class IdentifyReport:
         Highest pLSCF model order (unused by ``"peak"``).
     datasets : tuple of DatasetIdentification
     """
+
+    TABLES = ("modes",)
+    PLOTS = ("frf",)
 
     path: Path
     file_format: str
@@ -192,34 +233,28 @@ class IdentifyReport:
             ],
         }
 
-    def to_pandas(self):
+    def _table_modes(self):
         """One row per (dataset, mode): dataset, mode, freq_hz, damping_ratio,
-        damping_ratio_uncorrected, peak_magnitude.
-
-        Returns
-        -------
-        pandas.DataFrame
-        """
+        damping_ratio_uncorrected, peak_magnitude."""
         import pandas as pd
 
-        rows = [
-            {"dataset": d.data.name, **{k: v for k, v in row.items() if k != "shape"}}
-            for d in self.datasets
-            for row in d.table()
-        ]
-        columns = ["dataset", "mode", "freq_hz", "damping_ratio",
-                   "damping_ratio_uncorrected", "peak_magnitude"]
-        return pd.DataFrame(rows, columns=columns)
+        frames = [d.to_pandas("modes").assign(dataset=d.data.name) for d in self.datasets]
+        if not frames:
+            return pd.DataFrame(columns=["dataset", *_MODE_COLUMNS])
+        return pd.concat(frames, ignore_index=True)[["dataset", *_MODE_COLUMNS]]
+
+    def _plot_frf(self, ax):
+        """One panel per dataset: ``sum |H|`` with the identified frequencies."""
+        n = max(len(self.datasets), 1)
+        fig, axes = figure_axes(ax, n, figsize=(7, 2.8 * n))
+        for d, a in zip(self.datasets, axes, strict=False):
+            d._draw(a)
+        fig.tight_layout()
+        return fig
 
 
-def _real_shape(v: np.ndarray) -> np.ndarray:
-    """Rotate a complex shape so its largest entry is real positive; return the real
-    part scaled to a largest magnitude of 1."""
-    v = np.asarray(v, dtype=complex)
-    k = int(np.argmax(np.abs(v)))
-    if abs(v[k]) == 0:
-        return np.zeros(v.size)
-    return (v / v[k]).real
+_MODE_COLUMNS = ["mode", "freq_hz", "damping_ratio", "damping_ratio_uncorrected",
+                 "peak_magnitude"]
 
 
 def correct_exponential_window(modal: ModalParameters, sigma_w_rad_s: float) -> ModalParameters:

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from truthbench.presentation import Presentable, figure_axes
 from truthbench.settings import Configurable, setting
 from truthbench.update.identifiability import check_identifiable, check_overdetermined
 
@@ -35,8 +36,14 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True)
-class UpdateResult:
+class UpdateResult(Presentable):
     """Outcome of a model update.
+
+    Tables (:meth:`to_pandas`): ``"parameters"`` one row per parameter (start, result,
+    change), ``"history"`` one row per iteration (cost and every parameter),
+    ``"correlation"`` the parameter correlation matrix. Figures (:meth:`plot`):
+    ``"history"`` the parameters' relative change and the cost against the iteration,
+    ``"correlation"`` the correlation matrix.
 
     Attributes
     ----------
@@ -59,6 +66,9 @@ class UpdateResult:
     method : str
     """
 
+    TABLES = ("parameters", "history", "correlation")
+    PLOTS = ("history", "correlation")
+
     names: tuple[str, ...]
     initial: np.ndarray
     values: np.ndarray
@@ -73,6 +83,68 @@ class UpdateResult:
     @property
     def n_iterations(self) -> int:
         return len(self.history) - 1
+
+    def _changes(self, values: np.ndarray) -> np.ndarray:
+        """``values / initial - 1`` per parameter, or ``values - initial`` (the
+        parameter's unit) where it started at 0 (an additive parameter)."""
+        x0 = np.asarray(self.initial, dtype=float)
+        zero = x0 == 0
+        return np.where(zero, values - x0, values / np.where(zero, 1.0, x0) - 1.0)
+
+    def _table_parameters(self):
+        """One row per parameter: parameter, initial, value, change (``value / initial -
+        1``, or ``value - initial`` for a parameter that started at 0), method."""
+        import pandas as pd
+
+        return pd.DataFrame({"parameter": list(self.names), "initial": self.initial,
+                             "value": self.values, "change": self._changes(self.values),
+                             "method": self.method})
+
+    def _table_history(self):
+        """One row per entry of ``history`` (0: the start): iteration, cost and every
+        parameter's value."""
+        import pandas as pd
+
+        df = pd.DataFrame(np.asarray(self.history), columns=list(self.names))
+        df.insert(0, "cost", self.cost_history)
+        df.insert(0, "iteration", np.arange(len(self.history)))
+        return df
+
+    def _table_correlation(self):
+        """The parameter correlation matrix, parameters as index and columns."""
+        import pandas as pd
+
+        return pd.DataFrame(self.correlation, index=list(self.names),
+                            columns=list(self.names))
+
+    def _plot_history(self, ax):
+        """Every parameter's change from its start and the cost, against the
+        iteration."""
+        fig, (top, bottom) = figure_axes(ax, 2, sharex=True, figsize=(7, 5))
+        it = np.arange(len(self.history))
+        changes = self._changes(np.asarray(self.history))
+        for k, name in enumerate(self.names):
+            top.plot(it, changes[:, k], "o-", ms=3, label=name)
+        top.set_ylabel("change from start")
+        top.legend(fontsize="small")
+        bottom.semilogy(it, self.cost_history, "o-", ms=3, color="0.3")
+        bottom.set_ylabel("cost")
+        bottom.set_xlabel("iteration")
+        top.set_title(f"{self.method}: {'converged' if self.converged else 'not converged'}"
+                      f" in {self.n_iterations} iterations", fontsize="medium")
+        fig.tight_layout()
+        return fig
+
+    def _plot_correlation(self, ax):
+        """The parameter correlation matrix (-1 to 1)."""
+        fig, (ax,) = figure_axes(ax, figsize=(5, 4))
+        image = ax.imshow(self.correlation, vmin=-1.0, vmax=1.0, cmap="RdBu_r")
+        ticks = np.arange(len(self.names))
+        ax.set_xticks(ticks, self.names, rotation=45, ha="right")
+        ax.set_yticks(ticks, self.names)
+        fig.colorbar(image, ax=ax, label="correlation")
+        fig.tight_layout()
+        return fig
 
     def as_dict(self) -> dict[str, float]:
         return dict(zip(self.names, self.values.tolist(), strict=True))
