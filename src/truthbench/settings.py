@@ -17,7 +17,7 @@ a :class:`Setting` in the field's metadata; everything else is read from there:
 Why a dataclass with field metadata and not a pydantic model: the classes are the
 library's Python API and are built often (a setting per trial, per fit): a frozen
 dataclass keeps a plain keyword signature, pickles, costs nothing to construct and
-imports nothing (this module imports only the standard library and
+imports nothing heavy (this module needs only the standard library and
 :mod:`truthbench._validation`; pydantic is loaded only when a file schema is built). The
 constraint vocabulary is small (an interval, an integer, a list of choices, a frequency
 band), so rendering it for pydantic and argparse takes a few lines each, and a
@@ -36,7 +36,13 @@ Using it for another class (the diagnosis's ``DiagnoseSettings``, say)::
     DiagnoseSpec = settings_model("DiagnoseSpec", [DiagnoseSettings], base=_DiagnoseTable)
 
 Fields without :func:`setting` are ordinary fields (not checked, not in the file); the
-``base`` model holds the file's own keys (``map``, ``channels``, ...) and validators.
+``base`` model holds the file's own keys (``map``, ``channels``, ...) and validators, and
+``exclude=[...]`` leaves out declared settings the file spells differently. The
+constructor's ``DiagnoseSettings.from_settings(spec.diagnose.model_dump())`` then takes
+the file's values by name, and a command-line option for one is
+``cli._args.setting_option(parser, "--threshold",
+"truthbench.diagnose.core:DiagnoseSettings.threshold", help=...)``; the contract test
+(``tests/test_settings.py``) checks a class once it is listed there.
 """
 
 from __future__ import annotations

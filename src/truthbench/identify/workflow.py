@@ -238,10 +238,9 @@ class IdentifyReport(Presentable):
         damping_ratio_uncorrected, peak_magnitude."""
         import pandas as pd
 
-        frames = [d.to_pandas("modes").assign(dataset=d.data.name) for d in self.datasets]
-        if not frames:
-            return pd.DataFrame(columns=["dataset", *_MODE_COLUMNS])
-        return pd.concat(frames, ignore_index=True)[["dataset", *_MODE_COLUMNS]]
+        rows = [{"dataset": d.data.name, **{k: v for k, v in row.items() if k != "shape"}}
+                for d in self.datasets for row in d.table()]
+        return pd.DataFrame(rows, columns=["dataset", *_MODE_COLUMNS])
 
     def _plot_frf(self, ax):
         """One panel per dataset: ``sum |H|`` with the identified frequencies."""
