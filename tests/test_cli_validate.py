@@ -42,7 +42,8 @@ def test_update_band_outside_the_tests_fails(tmp_path, capsys):
     # refused when the file is read (every command validates the same way): exit 2
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
-    assert "key 'update.band_hz'" in err and "450-500 Hz" in err and "shaker_end" in err
+    assert "key 'update.band_hz'" in err and "450-500 Hz" in err
+    assert "the tests' excited band 2-400 Hz" in err and "reaches above it" in err
 
 
 def test_a_bad_campaign_file_is_exit_2(tmp_path, capsys):

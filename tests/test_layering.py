@@ -17,6 +17,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "truthbench"
 
 LAYERS = (
     ("_version", "errors", "_validation", "quantities"),
+    ("settings", "presentation"),
     ("fe", "model", "measure", "simulate"),
     ("plants", "io"),
     ("identify", "effects"),

@@ -259,6 +259,11 @@ CAMPAIGN_CASES = [
                   "update.band_hz"),
     campaign_case("update-band-outside", {"update.band_hz": [600.0, 700.0]},
                   "update.band_hz"),
+    campaign_case("update-band-above-tests", {"update.band_hz": [10.0, 450.0]},
+                  "key 'update.band_hz': expected a band inside the tests' excited band "
+                  "2-400 Hz"),
+    campaign_case("level-1e308", {"tests[0].level_rms": 1e308},
+                  "key 'tests[0].level_rms': expected a level from 1e-06 to 1e+06 N"),
     campaign_case("uncertainty-band-reversed",
                   {"uncertainty": {"band_hz": [400.0, 10.0]}}, "uncertainty.band_hz"),
     # sizes that cannot work

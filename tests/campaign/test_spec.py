@@ -129,6 +129,40 @@ def test_limits_are_inclusive(small_dict):
     assert MAX_ELEMENTS == 500
 
 
+def test_level_and_update_band_limits(small_dict):
+    """level_rms inside LEVEL_RMS_RANGE (limits inclusive); the update band inside the
+    span of the tests' bands (its edges may touch it), and with lines of every test."""
+    import math
+
+    from truthbench.campaign.spec import LEVEL_RMS_RANGE
+
+    d = small_dict
+    low, high = LEVEL_RMS_RANGE
+    for level in (low, high):
+        d["tests"][0]["level_rms"] = level
+        parse_campaign(d)
+    d["tests"][0]["level_rms"] = math.nextafter(high, math.inf)
+    with pytest.raises(CampaignError, match=r"'tests\[0\].level_rms': expected a level from "
+                                            r"1e-06 to 1e\+06 N"):
+        parse_campaign(d)
+    d["tests"][0]["level_rms"] = 2.0
+    d["update"]["band_hz"] = [2.0, 400.0]  # the tests' band itself
+    parse_campaign(d)
+    d["update"]["band_hz"] = [1.0, 401.0]
+    with pytest.raises(CampaignError, match=r"'update.band_hz': expected a band inside the "
+                                            r"tests' excited band 2-400 Hz .* got 1-401 Hz, "
+                                            r"which reaches below and above it"):
+        parse_campaign(d, "cfg.toml")
+    # inside the span, but holding no line of one test
+    d["tests"][0]["band_hz"] = [2.0, 100.0]
+    d["tests"][1]["band_hz"] = [200.0, 400.0]
+    d["update"]["band_hz"] = [250.0, 350.0]
+    with pytest.raises(CampaignError, match=r"'update.band_hz': expected a band that overlaps "
+                                            r"every test's excited band .* 250-350 Hz, which "
+                                            r"holds no line of 'shaker_end'"):
+        parse_campaign(d, "cfg.toml")
+
+
 def test_lines_and_memory_estimate(small_dict):
     from truthbench.campaign.plan import CampaignPlan
     from truthbench.campaign.resources import simulation_bytes

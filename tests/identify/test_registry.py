@@ -8,8 +8,11 @@ import pytest
 from truthbench.identify import (
     IDENTIFIERS,
     ModalParameters,
+    PeakIdentifier,
+    PLSCFIdentifier,
     get_identifier,
     mac,
+    make_identifier,
     register_identifier,
 )
 
@@ -46,11 +49,28 @@ def test_contract(name, q):
 
 
 def test_registry_lookup_and_registration():
-    with pytest.raises(ValueError, match="'name' parameter must be one of \\['peak', 'plscf'\\]"):
+    with pytest.raises(ValueError,
+                       match=r"unknown identifier 'ssi'; expected one of \['peak', 'plscf'\]"):
         get_identifier("ssi")
     with pytest.raises(ValueError, match="already registered"):
-        register_identifier("peak", lambda *a, **k: None)
-    with pytest.raises(ValueError, match="'func' parameter must be callable"):
-        register_identifier("x", 3)
+        register_identifier(PeakIdentifier)
+    with pytest.raises(ValueError, match="non-empty string 'name'"):
+        register_identifier(int)
     with pytest.raises(TypeError):
         IDENTIFIERS["x"] = None  # read-only view
+
+
+def test_identifiers_are_configured_by_their_declared_settings():
+    """make_identifier takes the settings an identifier declares (ignores the others,
+    None meaning its default) and checks them by the declaration."""
+    assert make_identifier("plscf", {"max_order": 12, "n_modes": 3}) == PLSCFIdentifier(
+        max_order=12)
+    assert make_identifier("peak", {"max_order": 12, "n_modes": None}) == PeakIdentifier()
+    assert get_identifier("plscf").max_order == PLSCFIdentifier().max_order
+    with pytest.raises(ValueError, match="PLSCFIdentifier: 'max_order' must be an integer "
+                                         ">= 2 and <= 200; got 1"):
+        make_identifier("plscf", {"max_order": 1})
+    with pytest.raises(ValueError, match="'n_modes' must be an integer >= 1; got 0"):
+        PeakIdentifier(n_modes=0)
+    with pytest.raises(TypeError):
+        PLSCFIdentifier(40)  # settings are keyword-only

@@ -28,7 +28,8 @@ from truthbench.identify import (
     mac,
 )
 from truthbench.identify import workflow as identify
-from truthbench.io import ladisk_beam_impact, write_uff58_frf, write_uff58_time
+from truthbench.io import ladisk_beam_impact
+from truthbench.io._uff58 import write_uff58_frf, write_uff58_time
 from truthbench.measure import Channel, FRFData, frfs_from_time
 from truthbench.simulate import add_sensor_noise, simulate_lti
 
@@ -448,9 +449,10 @@ def test_other_bad_input(tmp_path, uff_frf_file):
         h.attrs["format"] = "something else"
     with pytest.raises(DataFormatError, match=r"x\.h5: not a truthbench results file"):
         identify_file(not_results)
-    with pytest.raises(ValueError, match=r"must be one of \['peak', 'plscf'\]"):
+    with pytest.raises(ValueError,
+                       match=r"unknown identifier 'circle'; expected one of \['peak', 'plscf'\]"):
         identify_file(uff_frf_file, method="circle")
-    with pytest.raises(ValueError, match="max_order must be an integer >= 2"):
+    with pytest.raises(ValueError, match="'max_order' must be an integer >= 2 and <= 200"):
         identify_file(uff_frf_file, max_order=1)
     with pytest.raises(ValueError, match=r"x\.h5: the \.h5 reader .* takes no option\(s\) "
                                          r"\['decay_to'\]"):

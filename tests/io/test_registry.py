@@ -20,8 +20,8 @@ from truthbench.io import (
     read_uff,
     register_reader,
     registered_extensions,
-    write_uff58_time,
 )
+from truthbench.io._uff58 import write_uff58_time
 from truthbench.measure import Channel, FRFData
 
 LVM = (

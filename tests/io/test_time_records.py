@@ -20,8 +20,8 @@ from truthbench.io import (
     load_frf,
     read_lvm,
     read_lvm_frf,
-    write_uff58_time,
 )
+from truthbench.io._uff58 import write_uff58_time
 from truthbench.measure import frfs_from_time
 
 SHIPPED_LVM = Path(str(importlib.resources.files("truthbench").joinpath(

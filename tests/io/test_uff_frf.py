@@ -20,7 +20,8 @@ import pytest
 import pyuff
 
 from truthbench.errors import DataFormatError
-from truthbench.io import load_frf, number_points, read_uff, write_uff, write_uff58_time
+from truthbench.io import load_frf, number_points, read_uff, write_uff
+from truthbench.io._uff58 import write_uff58_time
 from truthbench.measure import Channel, FRFData, estimate_frf, match_points
 from truthbench.plants import make_plant
 from truthbench.simulate import simulate_lti

@@ -422,6 +422,21 @@ def test_settings_chosen_are_reported(rng):
     assert est.df_hz == pytest.approx(FS / 103680)
 
 
+def test_the_estimate_describes_itself_as_an_estimator(rng):
+    """to_estimator: the window, segment, averages, rate and overlap the estimate
+    reports, as the leakage model's Estimator (no hand conversion of nperseg)."""
+    x = rng.standard_normal(4000)
+    est = h1(x, x, FS, window="hann", nperseg=500, noverlap=250)
+    e = est.to_estimator()
+    assert (e.window, e.segment_samples, e.fs_hz, e.averages, e.overlap_samples,
+            e.period_samples) == ("hann", 500, FS, est.n_averages, 250, None)
+    assert est.to_estimator(period_samples=1000).period_samples == 1000
+    impact = h1(x, x, FS, window=("exponential", 0.1), nperseg=4000)
+    with pytest.raises(ValueError, match=r"the window 'exponential\(decay_to=0.1\)' is not "
+                                         r"one of rectangular"):
+        impact.to_estimator()
+
+
 def test_singular_input_matrix_warns_and_gives_nan(rng):
     x = rng.standard_normal(4096)
     xx = np.vstack([x, np.zeros_like(x)])  # second input never excited

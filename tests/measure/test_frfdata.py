@@ -51,3 +51,34 @@ def test_errors_name_the_file_channel_point_and_nearest_node():
         match_points([far], NODES, -1.0)
     with pytest.raises(ValueError, match=r"holds no node"):
         match_points([far], np.zeros((0, 3)), 1.0)
+
+
+# ------------------------------------------------------------- FRFData and its Estimator
+
+
+def _frfdata(**kw):
+    from truthbench.measure import FRFData
+
+    f = np.linspace(0.0, 8.0, 5)
+    return FRFData("t", f, np.ones((5, 1, 1), complex),
+                   (Channel("y", "acceleration", "z"),), (Channel("u", "force", "z"),), **kw)
+
+
+def test_the_estimator_and_n_averages_are_one_number():
+    """The estimate's averages live in its Estimator; n_averages is the same number, a
+    missing one filled from the other, two different ones refused."""
+    from truthbench.measure.leakage import Estimator
+
+    est = Estimator("hann", 8, 16.0)
+    d = _frfdata(estimator=est, n_averages=4)
+    assert d.estimator.averages == 4 and d.n_averages == 4
+    d = _frfdata(estimator=Estimator("hann", 8, 16.0, averages=6))
+    assert d.n_averages == 6
+    assert _frfdata(n_averages=3).estimator is None
+    with pytest.raises(ValueError, match=r"'n_averages' \(3\) and the estimator's averages "
+                                         r"\(6\) must agree"):
+        _frfdata(estimator=Estimator("hann", 8, 16.0, averages=6), n_averages=3)
+    with pytest.raises(ValueError, match="'estimator' must be an Estimator; got dict"):
+        _frfdata(estimator={"window": "hann"})
+    # lines() keeps the estimator (a model is compared through it on any subset)
+    assert d.lines(d.freq_hz > 0).estimator == d.estimator

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from truthbench.measure import spectral_matrices
-from truthbench.measure.leakage import expected_h1, h1_kernel
+from truthbench.measure.leakage import Estimator, expected_h1, h1_kernel
 from truthbench.simulate import band_limited_random
 
 FS, N, A = 1024.0, 16384, 4
@@ -62,3 +62,23 @@ def test_kernel_is_normalised_symmetric_and_refuses_a_bad_period():
         h1_kernel("bartlett", 1024, 1000.0, period_samples=5000)
     with pytest.raises(ValueError, match="not on the kernel's grid"):
         expected_h1([10.01], sdof, k)
+
+
+def test_estimator_checks_its_fields_and_round_trips_as_a_dict():
+    est = Estimator("bartlett", 64, 128, period_samples=256, averages=4, overlap_samples=0)
+    assert Estimator(**est.to_dict()) == est and est.fs_hz == 128.0
+    assert Estimator(**{k: v for k, v in est.to_dict().items()  # an older file's keys
+                        if k not in ("averages", "overlap_samples")}).averages is None
+    for bad, message in [({"segment_samples": 1}, "'segment_samples' must be an integer "
+                                                  ">= 2"),
+                         ({"fs_hz": 0.0}, "'fs_hz' must be a finite number > 0"),
+                         ({"averages": 0}, "'averages' must be an integer >= 1"),
+                         ({"overlap_samples": 64}, "'overlap_samples' must be an integer "
+                                                   ">= 0 and < 64"),
+                         ({"period_samples": 32}, "'period_samples' must be an integer "
+                                                  ">= 64")]:
+        with pytest.raises(ValueError, match=f"Estimator: {message}"):
+            Estimator(**{**est.to_dict(), **bad})
+    # averages and overlap do not move the expected estimate
+    assert np.array_equal(est.kernel().weights,
+                          Estimator("bartlett", 64, 128.0, 256).kernel().weights)

@@ -85,7 +85,10 @@ def test_to_pandas_and_plot(study, tmp_path):
     assert row.mean_error_pct == pytest.approx(study.error_stats()[0][0])
     assert row.n_valid == 6
     assert frame.attrs["n_averages"] == 10 and frame.attrs["noise_fraction"] == 0.5
-    assert study.plot(tmp_path / "f.png").stat().st_size > 10_000
+    fig = study.plot()
+    assert len(fig.axes) == 2
+    fig.savefig(tmp_path / "f.png")
+    assert (tmp_path / "f.png").stat().st_size > 10_000
 
 
 @pytest.mark.parametrize(

@@ -113,8 +113,11 @@ def test_to_pandas_and_plot(study, tmp_path):
                                    "freq_error_pct", "one_minus_mac", "shape_error"]
     row = frame[(frame.n_elements == 20) & (frame["mode"] == 2)].iloc[0]
     assert row.freq_error_pct == pytest.approx(study.freq_error_pct[19, 1])
-    out = study.plot(tmp_path / "d.png")
-    assert out.stat().st_size > 10_000
+    fig = study.plot()
+    assert len(fig.axes) == 2 and fig.axes[0].get_yscale() == "log"
+    assert len(fig.axes[0].lines) == len(study.modes)
+    fig.savefig(tmp_path / "d.png")
+    assert (tmp_path / "d.png").stat().st_size > 10_000
 
 
 def test_result_is_read_only(study):

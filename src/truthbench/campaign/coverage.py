@@ -24,10 +24,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from truthbench.presentation import Presentable
+
 
 @dataclass(frozen=True)
-class CoverageSummary:
+class CoverageSummary(Presentable):
     """Coverage of one campaign run's bounds.
+
+    Table ``"parameters"`` (:meth:`to_pandas`): :attr:`per_parameter`. Figure
+    ``"calibration"`` (:meth:`plot`): the held-out calibration.
 
     Attributes
     ----------
@@ -56,6 +61,9 @@ class CoverageSummary:
         two complete trials).
     """
 
+    TABLES = ("parameters",)
+    PLOTS = ("calibration",)
+
     names: tuple[str, ...]
     k_sigma: float
     n_build: int
@@ -67,27 +75,18 @@ class CoverageSummary:
     per_parameter: object
     calibration: object | None
 
-    def to_pandas(self):
+    def _table_parameters(self):
         """The per-parameter table (:attr:`per_parameter`), a copy."""
         return self.per_parameter.copy()
 
-    def plot(self, ax=None):
+    def _plot_calibration(self, ax):
         """The held-out calibration: observed coverage against ``k`` with its interval
-        and the normal-theory expectations.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-
-        Raises
-        ------
-        ValueError
-            Without a calibration curve (no held-out tests).
-        """
+        and the normal-theory expectations; a ValueError without a calibration curve
+        (no held-out tests)."""
         if self.calibration is None:
             raise ValueError("no calibration curve: the campaign holds out no test "
                              "([uncertainty] holdout) or has fewer than two complete trials")
-        fig = self.calibration.plot(ax=ax)
+        fig = self.calibration.plot("calibration", ax)
         fig.axes[0].set_title(f"Held-out truths inside the k-sigma bound "
                               f"({self.n_trials} trials)", fontsize=10)
         fig.tight_layout()

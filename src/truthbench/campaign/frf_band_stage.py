@@ -21,14 +21,21 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from truthbench.presentation import Presentable
+
 MIN_TESTS = 3
 """Tests a band needs: the 2 x 2 covariance of real and imaginary parts from two tests
 is singular."""
 
 
 @dataclass(frozen=True)
-class FrfBandStage:
+class FrfBandStage(Presentable):
     """The FRF band of one trial.
+
+    Table ``"lines"`` (:meth:`to_pandas`): one row per line and input-output pair, with
+    the channel labels. Figure ``"magnitude"`` (:meth:`plot`): the mean FRF's magnitude
+    and its band (:class:`~truthbench.uncertainty.frequency.FrfUncertainty`; the
+    campaign result's ``plot("frf_band")`` adds the models).
 
     Attributes
     ----------
@@ -46,6 +53,9 @@ class FrfBandStage:
         lines and pairs inside the ``k``-sigma ellipse, in [0, 1].
     output_labels, input_labels : tuple of str
     """
+
+    TABLES = ("lines",)
+    PLOTS = ("magnitude",)
 
     tests: tuple[str, ...]
     band: object
@@ -82,14 +92,14 @@ class FrfBandStage:
         # model FRFs are stored at the lines above 0 Hz
         return model[self.line_mask[rec.freq_hz > 0]]
 
-    def to_pandas(self):
-        """One row per line and input-output pair: the band's mean and standard
-        deviations (``FrfUncertainty.to_pandas``) with the channel labels.
+    def _plot_magnitude(self, ax, **options):
+        """The band's mean magnitude and its ``k``-sigma band, one panel per pair."""
+        return self.band.plot("magnitude", ax, **options)
 
-        Returns
-        -------
-        pandas.DataFrame
-        """
+    def _table_lines(self):
+        """One row per line and input-output pair: the band's mean and standard
+        deviations (:class:`~truthbench.uncertainty.frequency.FrfUncertainty`) with the
+        channel labels."""
         df = self.band.to_pandas().reset_index()
         df["output"] = np.asarray(self.output_labels, dtype=object)[df["output"]]
         df["input"] = np.asarray(self.input_labels, dtype=object)[df["input"]]

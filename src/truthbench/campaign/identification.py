@@ -33,11 +33,11 @@ def acceleration_frf(record):
     return frf.lines(frf.freq_hz > 0).as_quantity("acceleration")
 
 
-def identify_test(test, record, *, max_order: int = 40):
+def identify_test(test, record, *, max_order: int | None = None):
     """Identified modes of ``record``, the data of ``test`` (a
     :class:`~truthbench.campaign.plan.TestPlan`), over its excited band
     (:class:`~truthbench.identify.ModalParameters`, shapes over the test's sensors in
-    displacement-equivalent units)."""
+    displacement-equivalent units); ``max_order`` None: the identifier's default."""
     from truthbench.identify import identify_frfs
 
     data = acceleration_frf(record)

@@ -31,10 +31,17 @@ CAMPAIGN_ONLY = ("sensors", "tests", "truth", "identify", "uncertainty", "output
 
 
 class ModelMeta(_Strict):
+    """``[campaign]`` of a model file: only a name is used (a campaign file's table is
+    accepted as it is)."""
+
     name: str = "model"
+    """Names the diagnosis's output."""
     description: str = ""
+    """One line shown in the report."""
     seed: int = 0
+    """Not used by a model file (a campaign file's seed)."""
     trials: int = 1
+    """Not used by a model file (a campaign file's trials)."""
 
 
 class ModelSpec(_Strict):

@@ -90,15 +90,15 @@ class TestRecord:
     def output_labels(self) -> tuple[str, ...]:
         return self.frf.output_labels
 
-    def to_pandas(self):
-        """The FRFs as a long table (:meth:`FRFData.to_pandas
+    def to_pandas(self, table: str | None = None):
+        """The FRFs' tables (:meth:`FRFData.to_pandas
         <truthbench.measure.frfdata.FRFData.to_pandas>`)."""
-        return self.frf.to_pandas()
+        return self.frf.to_pandas(table)
 
-    def plot(self, **kwargs):
-        """Magnitude, phase and coherence of the FRFs (:meth:`FRFData.plot
+    def plot(self, kind: str | None = None, ax=None, **options):
+        """The FRFs' figures (:meth:`FRFData.plot
         <truthbench.measure.frfdata.FRFData.plot>`); returns the figure."""
-        return self.frf.plot(**kwargs)
+        return self.frf.plot(kind, ax, **options)
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,9 @@ from pydantic_core import PydanticCustomError
 
 from truthbench._validation import is_safe_name, name_rule, read_text
 from truthbench.errors import CampaignError, ModelError
+from truthbench.identify import PLSCFIdentifier
+from truthbench.settings import settings_model
+from truthbench.update import UPDATERS
 
 Direction = Literal["x", "y", "z", "rx", "ry", "rz"]
 # every number of a campaign is finite: TOML has inf and nan literals, and an infinite
@@ -46,6 +49,16 @@ down sharply (800 elements: 4 s for 8 modes; 1000: 20 s; 2000 did not finish in 
 minute). Discretization error is far below any test's at a few tens of elements
 (README, Figure 10.2)."""
 
+LEVEL_RMS_RANGE = (1e-6, 1e6)
+"""Smallest and largest ``[[tests]] level_rms``, N (N m for a moment): a micronewton to a
+meganewton, three decades beyond the lightest and heaviest laboratory excitation (a
+shaker gives up to about a kilonewton). Every model here is linear in the level and the
+noise is relative to the signal, so nothing is lost by the range, while the H1 estimate
+needs the level's fourth power inside the float range: its coherence squares the
+cross-spectrum (level^2 times the segment length and the response's gain). On the
+quickstart the coherence overflows from about 1e75 N and underflows below about
+1e-75 N; at 1e150 N the spectra overflow and at 1e200 N the simulated responses do."""
+
 DEFAULT_NODE_TOLERANCE_M = 1e-4
 """``[plant] node_tolerance_m`` default (the plants' own
 :data:`~truthbench.plants.base.DEFAULT_NODE_TOLERANCE_M`): a position in metres maps to a
@@ -53,7 +66,8 @@ node no farther than 0.1 mm away."""
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False,
+                              use_attribute_docstrings=True)
 
 
 def _one_placement(data: Any, what: str) -> Any:
@@ -75,9 +89,15 @@ class SensorSpec(_Strict):
     :func:`position_station_name`) when the campaign is validated."""
 
     station: str | None = None
+    """A station name (``[plant] stations`` or the plant's own: ``end_a``, ``mid``, ...);
+    give this or ``x_m``."""
     x_m: FiniteFloat | None = None
+    """Position along the beam from its first end, m, on a node (within
+    ``[plant] node_tolerance_m``); give this or ``station``."""
     direction: Direction
+    """Measured direction: translation along x, y, z or rotation about them."""
     quantity: Literal["displacement", "velocity", "acceleration", "strain"] = "acceleration"
+    """What the sensor measures (strain: bending strain at the surface)."""
 
     @model_validator(mode="before")
     @classmethod
@@ -89,8 +109,12 @@ class ActuatorSpec(_Strict):
     """A force or moment input at a station (or position ``x_m``)."""
 
     station: str | None = None
+    """A station name; give this or ``x_m``."""
     x_m: FiniteFloat | None = None
+    """Position along the beam from its first end, m, on a node; give this or
+    ``station``."""
     direction: Direction
+    """Direction of the force (x, y, z) or of the moment (rx, ry, rz)."""
 
     @model_validator(mode="before")
     @classmethod
@@ -103,6 +127,7 @@ class StationPosition(_Strict):
     first end on the nominal length."""
 
     x_m: FiniteFloat
+    """Metres along the beam from its first end."""
 
 
 def _safe_name(value, portable: bool):
@@ -116,8 +141,12 @@ class CampaignMeta(_Strict):
     """Names the output folder ``results/<name>`` and the HDF5 results: a portable name
     (:func:`truthbench._validation.check_name`), never a path."""
     description: str = ""
+    """One line shown in the report."""
     seed: Annotated[int, Field(ge=0)] = 0
+    """Root of every random draw (hardware, excitation, noise); results do not depend on
+    the worker count."""
     trials: Annotated[int, Field(ge=1)] = 1
+    """Monte Carlo trials: each draws new hardware from the truth and runs every test."""
 
     @field_validator("name")
     @classmethod
@@ -129,9 +158,13 @@ class PlantSpec(_Strict):
     """The test article: plant type, mesh, section, material, stations, suspension."""
 
     type: Literal["free_free_beam", "hub_beam"]
+    """The plant: a free-free beam on its suspension, or a clamped beam on a rotating
+    hub."""
     n_elements: Annotated[int, Field(ge=1)] = 20
     """Equal elements along the beam, at most :data:`MAX_ELEMENTS`."""
     n_groups: Annotated[int, Field(ge=1)] = 1
+    """Element groups along the beam, each with its own copy of every element parameter
+    (``E_pa@g2``), for localized updating."""
     section: str = "tube"
     """Cross-section, one of :data:`truthbench.fe.beam.SECTIONS` (its dimensions are plant
     parameters: ``r_m``, ``t_m``; ``b_m``, ``h_m``; ``d_m``)."""
@@ -152,6 +185,8 @@ class PlantSpec(_Strict):
     node_tolerance_m: PositiveFloat = DEFAULT_NODE_TOLERANCE_M
     """Largest distance from a position in metres to the node it maps to."""
     parameters: dict[str, FiniteFloat] = Field(default_factory=dict)
+    """The nominal model's parameters in SI, units in the names (``E_pa``,
+    ``rho_kg_m3``, ``r_m``, ...); unlisted ones take the plant's defaults."""
 
     @field_validator("n_elements")
     @classmethod
@@ -331,16 +366,30 @@ class TestSpec(_Strict):
     __test__ = False  # not a pytest test class
 
     name: str
+    """Names the test in the results, the report and file names."""
     actuators: Annotated[list[ActuatorSpec], Field(min_length=1)]
+    """``[[tests.actuators]]``: the inputs of the test (one or more)."""
     sensors: list[SensorSpec] | None = None
-    level_rms: PositiveFloat = 1.0
+    """``[[tests.sensors]]``: this test's sensors (default: the campaign's
+    ``[[sensors]]``)."""
+    level_rms: PositiveFloat = Field(1.0, json_schema_extra={"unit": "N or N m"})
+    """RMS of each input's band-limited random force (or moment) over the record."""
     band_hz: tuple[NonNegFloat, PositiveFloat]
+    """The excited band: the input's flat spectrum spans it (upper edge at or below
+    Nyquist)."""
     fs_hz: PositiveFloat
+    """Sampling rate of the recorded time histories."""
     record_s: PositiveFloat
+    """Record length; the record holds ``round(record_s fs_hz)`` samples."""
     averages: Annotated[int, Field(ge=1)] = 10
+    """Segments averaged in the H1 estimate (Bartlett's method, no overlap)."""
     window: Literal["rectangular", "bartlett", "hann", "hamming"] = "bartlett"
+    """Window of every segment."""
     noise_fraction: NonNegFloat = 0.0
+    """Output noise: its standard deviation as a fraction of each output's RMS (at most
+    ``sqrt(2 averages)``)."""
     oversample: Annotated[int, Field(ge=1, le=64)] = 8
+    """Time steps per sample of the "time" simulation."""
     simulation: Literal["periodic", "time"] = "periodic"
     """"periodic": exact steady state of the periodic record, line by line (linear truth);
     "time": exact first-order-hold time stepping at ``oversample`` times the rate."""
@@ -361,35 +410,57 @@ class TestSpec(_Strict):
     def _band_ordered(cls, v):
         return _ordered_band(v)
 
+    @field_validator("level_rms")
+    @classmethod
+    def _level_in_range(cls, v):
+        low, high = LEVEL_RMS_RANGE
+        if not low <= v <= high:
+            raise PydanticCustomError(
+                "level", f"a level from {low:g} to {high:g} N (N m for a moment): the "
+                f"models are linear in it, and the H1 estimate's coherence (its fourth "
+                f"power) must stay inside the float range")
+        return v
 
-class IdentifySpec(_Strict):
-    """Modal identification of every test (pLSCF over the test's band)."""
+
+class _IdentifyTable(_Strict):
+    """``[identify]``: modal identification of every test (pLSCF over the test's band);
+    the settings are :class:`~truthbench.identify.PLSCFIdentifier`'s."""
 
     enabled: bool = True
-    max_order: Annotated[int, Field(ge=2, le=200)] = 40
+    """Identify the modes of every test (sensitivity localization, the uncertainty model
+    and the pole plot need them)."""
 
 
-class UpdateSpec(_Strict):
+IdentifySpec = settings_model("IdentifySpec", [PLSCFIdentifier], base=_IdentifyTable)
+
+
+class _UpdateTable(_Strict):
+    """``[update]``: which parameters are updated, how, against which lines. The settings
+    of the updaters (:data:`truthbench.update.UPDATERS`) are declared once by their
+    classes; a setting two updaters share (``max_iterations``, ``tolerance``, ...) goes to
+    both."""
+
     method: str | list[str] = "finite_difference"
     """An updater name from :data:`truthbench.update.UPDATERS`, a list of them (run side
     by side; the first is the primary), or "none"."""
     parameters: list[str] = Field(default_factory=list)
+    """The model parameters to update (plant parameters, ``<name>@<group>`` for one
+    group, or appended dynamics such as ``delay_s``)."""
     band_hz: tuple[NonNegFloat, PositiveFloat] | None = None
+    """The update uses the lines of every test inside this band (default: each test's
+    excited band); it must lie inside the span of the tests' bands."""
     weighting: Literal["none", "coherence", "inverse_magnitude"] = "none"
-    max_iterations: Annotated[int, Field(ge=1)] = 30
-    tolerance: PositiveFloat = 1e-7
-    relative_step: Annotated[float, Field(gt=0, lt=0.1)] = 1e-4
-    scheme: Literal["central", "forward"] = "central"
-    c_zeta: NonNegFloat = 1.0
-    """Sensitivity localization: weight of the damping-ratio rows (used when a damping
-    parameter is updated; identified damping is less accurate than frequency)."""
-    mac_min: Annotated[float, Field(ge=0, le=1)] = 0.8
-    """Sensitivity localization: least MAC of a measured-model mode pair."""
+    """Weight of every FRF value in the finite-difference cost: none, the inverse of the
+    H1 standard deviation from the coherence, or the inverse magnitude (relative
+    errors)."""
 
     @field_validator("band_hz")
     @classmethod
     def _band_ordered(cls, v):
         return None if v is None else _ordered_band(v)
+
+
+UpdateSpec = settings_model("UpdateSpec", UPDATERS.values(), base=_UpdateTable)
 
 
 class UncertaintySpec(_Strict):
@@ -808,7 +879,7 @@ def _check_references(spec: CampaignSpec) -> None:
                 raise CampaignError(f"{src}: key '{where}.support': {exc}") from None
     _check_geometry_effects(spec, plant)
     check_refinement(spec, effects)
-    from truthbench.update import APPENDED_PARAMETERS, UPDATERS, make_updater
+    from truthbench.update import APPENDED_PARAMETERS, make_updater
 
     for key in spec.update.parameters:
         if key not in APPENDED_PARAMETERS:
@@ -877,6 +948,7 @@ def _check_references(spec: CampaignSpec) -> None:
             raise CampaignError(f"{src}: key 'tests[{j}].averages': {t.averages} averages of a "
                                 f"{n}-sample record leave fewer than 16 samples per segment")
     _check_channels(spec)
+    _check_update_band(spec)
     plan = CampaignPlan.compile(spec)
     check_memory(plan)  # first: the lines of a record that cannot fit are not listed
     _check_update_lines(plan)
@@ -942,6 +1014,24 @@ def _check_channels(spec: CampaignSpec) -> None:
         once(t.actuators, f"tests[{j}].actuators", ("station", "direction"))
         if t.sensors is not None:
             once(t.sensors, f"tests[{j}].sensors", ("station", "direction", "quantity"))
+
+
+def _check_update_band(spec: CampaignSpec) -> None:
+    """``[update] band_hz`` lies inside the span of the tests' excited bands: beyond it no
+    test has data, and the band also bounds the modes scored and the uncertainty model
+    (which would otherwise be clipped, or look for modes nothing excited)."""
+    if spec.update.band_hz is None:
+        return
+    lo = min(t.band_hz[0] for t in spec.tests)
+    hi = max(t.band_hz[1] for t in spec.tests)
+    ulo, uhi = spec.update.band_hz
+    if ulo < lo or uhi > hi:
+        side = " and ".join(w for w, out in (("below", ulo < lo), ("above", uhi > hi)) if out)
+        raise CampaignError(
+            f"{spec.source}: key 'update.band_hz': expected a band inside the tests' "
+            f"excited band {lo:g}-{hi:g} Hz (the span of every [[tests]] band_hz: the "
+            f"update has data only there); got {ulo:g}-{uhi:g} Hz, which reaches {side} "
+            f"it")
 
 
 def _check_update_lines(plan) -> None:

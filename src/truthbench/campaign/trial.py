@@ -32,7 +32,6 @@ from truthbench.campaign.uncertainty_stage import model_values, uncertainty_stag
 from truthbench.effects import Hardware
 from truthbench.measure import estimate_frf
 from truthbench.measure.frfdata import FRFData
-from truthbench.measure.leakage import Estimator
 from truthbench.simulate import band_limited_random
 from truthbench.update import (
     APPENDED_PARAMETERS,
@@ -80,11 +79,10 @@ def measure_test(plan, test, u, y, params: dict, *, identify: bool = True) -> Te
     n = u.shape[1]
     periodic = n % est.nperseg == 0  # the force is periodic over the record
     frf = FRFData(t.name, est.freq_hz, est.H, test.outputs, test.inputs,
-                  coherence=est.coherence, n_averages=est.n_averages, band_hz=test.band_hz,
+                  coherence=est.coherence, band_hz=test.band_hz,
                   notes=(f"H1, {t.window} window, {est.n_averages} averages of "
                          f"{est.nperseg} samples at {t.fs_hz:g} Hz",),
-                  estimator=Estimator(t.window, est.nperseg, t.fs_hz,
-                                      n if periodic else None),
+                  estimator=est.to_estimator(period_samples=n if periodic else None),
                   input_rms=tuple(float(v) for v in np.sqrt(np.mean(u**2, axis=1))))
     record = TestRecord(t.name, frf, u, y, t.fs_hz, dict(params))
     return identify_record(plan, test, record) if identify else record

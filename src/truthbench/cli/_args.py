@@ -12,6 +12,7 @@ Imports nothing heavy: ``truthbench --help`` stays fast.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import textwrap
@@ -91,6 +92,39 @@ def folder(text: str) -> str:
     return text
 
 
+def declared_setting(target: str):
+    """The :class:`~truthbench.settings.Setting` named ``"module:Class.field"``, imported
+    when asked for (the classes live in rooms that import scipy)."""
+    from truthbench.settings import declared
+
+    module, qualname = target.split(":")
+    cls_name, name = qualname.rsplit(".", 1)
+    return declared(getattr(importlib.import_module(module), cls_name))[name]
+
+
+def setting_option(parser, flag: str, target: str, *, help: str, **kwargs):
+    """Add option ``flag`` for the declared setting ``target`` (``"module:Class.field"``,
+    :mod:`truthbench.settings`): its value is parsed and checked by the declaration, and
+    when it is not given the command passes None, which the library reads as the
+    declared default; ``--help`` shows that default (:class:`HelpFormatter`). So the
+    command line cannot drift from the Python constructor and the campaign file."""
+
+    def parse(text: str):
+        s = declared_setting(target)
+        name = flag.lstrip("-").replace("-", "_")
+        convert = {"int": _int, "float": finite_float}.get(s.kind, str)
+        try:
+            return s.check(name, convert(text), error=argparse.ArgumentTypeError)
+        except argparse.ArgumentTypeError as exc:
+            raise argparse.ArgumentTypeError(str(exc).replace(f"'{name}' must be",
+                                                              "expected")) from None
+
+    parse.__name__ = target.rsplit(".", 1)[-1]
+    action = parser.add_argument(flag, type=parse, default=None, help=help, **kwargs)
+    action.setting = target
+    return action
+
+
 #: Checked types for options that a command declares with a plain ``type=int``.
 OPTION_TYPES = {
     "--trials": positive_int,
@@ -120,6 +154,13 @@ class HelpFormatter(argparse.HelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
+        target = getattr(action, "setting", None)
+        if target is not None:  # a declared setting: its default, unit and constraint
+            s = declared_setting(target)
+            unit = f" {s.unit}" if s.unit else ""
+            default = "unset" if s.default is None else f"{s.default}{unit}"
+            rule = s.constraint_text()
+            return f"{text} (default: {default}{'; ' + rule if rule else ''})"
         if ("%(default)" in text or "default" in text.lower()
                 or action.default in (None, False, argparse.SUPPRESS)
                 or not action.option_strings):
@@ -148,6 +189,25 @@ def harden(parser: argparse.ArgumentParser) -> None:
         for opt in action.option_strings:
             if opt in OPTION_TYPES and action.type is int:
                 action.type = OPTION_TYPES[opt]
+
+
+def files_only() -> None:
+    """Choose matplotlib's Agg backend: the command writes figure files and never opens a
+    window (the library never chooses a backend). Call it before any figure is made."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
+def save_figure(fig, path, *, dpi: int = 120):
+    """Write ``fig`` to ``path`` (its folder made if missing) and close it."""
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
 
 
 def _strict(value):

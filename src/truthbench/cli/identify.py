@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-from truthbench.cli._args import frequency_hz, int_in, positive_int
-
-#: Highest pLSCF order the command accepts: the campaign's ``[identify] max_order`` range.
-MAX_ORDER = 200
+from truthbench.cli._args import frequency_hz, setting_option
 
 
 def _fmt_shape(values) -> str:
@@ -85,11 +82,10 @@ def register(subparsers) -> None:
     i.add_argument("data", help="results .h5/.hdf5, UFF 58 .uff/.unv, or LabVIEW .lvm")
     i.add_argument("--json", action="store_true", help="print strict JSON instead of a table")
     i.add_argument("--method", default="plscf", choices=("plscf", "peak"), help="identifier")
-    i.add_argument("--max-order", type=int_in(2, MAX_ORDER, "pLSCF compares consecutive "
-                                              "orders; a campaign's [identify] range"),
-                   default=30, help="highest pLSCF model order")
+    setting_option(i, "--max-order", "truthbench.identify.plscf:PLSCFIdentifier.max_order",
+                   help="highest pLSCF model order")
     i.add_argument("--band", type=frequency_hz, nargs=2, metavar=("LO", "HI"),
                    help="identification band in Hz (default: from the data, see above)")
-    i.add_argument("--modes", type=positive_int,
-                   help="peak picking: number of peaks kept (default: every peak)")
+    setting_option(i, "--modes", "truthbench.identify.peak:PeakIdentifier.n_modes",
+                   help="peak picking: number of peaks kept, every peak when unset")
     i.set_defaults(func=_cmd_identify)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from truthbench.cli._args import folder, int_in, nonneg_int
+from truthbench.cli._args import files_only, folder, int_in, nonneg_int, save_figure
 
 DEFAULT_STUDY_DIR = Path("results") / "studies"
 
@@ -19,12 +19,13 @@ MAX_SEEDS = 1000
 def _cmd_study_discretization(args) -> int:
     from truthbench.studies.discretization import discretization_study
 
+    files_only()
     study = discretization_study(max_elements=args.max_elements)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     frame = study.to_pandas()
     frame.to_csv(out / "discretization.csv", index=False)
-    study.plot(out / "discretization.png")
+    save_figure(study.plot(), out / "discretization.png")
     p = study.parameters
     print(f"free-free tube, x-z bending: r {p['r_m'] * 1e3:.4g} mm, t {p['t_m'] * 1e3:.4g} mm, "
           f"L {p['L_m']:g} m, E {p['E_pa'] / 1e9:g} GPa, rho {p['rho_kg_m3']:g} kg/m^3")
@@ -49,12 +50,13 @@ def _cmd_study_discretization(args) -> int:
 def _cmd_study_damping(args) -> int:
     from truthbench.studies.damping_smoothing import damping_smoothing_study
 
+    files_only()
     study = damping_smoothing_study(n_seeds=args.seeds, seed=args.seed)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     frame = study.to_pandas()
     frame.to_csv(out / "damping_smoothing.csv", index=False)
-    study.plot(out / "damping_smoothing.png")
+    save_figure(study.plot(), out / "damping_smoothing.png")
     print(f"SDOF f_n {study.natural_freq_hz:g} Hz, zeta {study.damping_ratio:g}, fs "
           f"{study.fs_hz:g} Hz, {study.n_averages} averages, noise std "
           f"{study.noise_fraction:g} std(q), {study.n_seeds} records per point, seed "

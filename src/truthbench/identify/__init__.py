@@ -27,8 +27,9 @@ from truthbench.identify.correlation import (
 )
 from truthbench.identify.lsfd import LSFDResult, lsfd, refine_poles
 from truthbench.identify.modal import ModalParameters, modal_from_poles, poles_from_modal
-from truthbench.identify.peak import PeakPickingResult, peak_picking
+from truthbench.identify.peak import PeakIdentifier, PeakPickingResult, peak_picking
 from truthbench.identify.plscf import (
+    PLSCFIdentifier,
     PLSCFResult,
     PoleSelection,
     StabilityCriteria,
@@ -47,6 +48,7 @@ from truthbench.identify.registry import (
     IDENTIFIERS,
     Identifier,
     get_identifier,
+    make_identifier,
     register_identifier,
 )
 from truthbench.identify.scaling import mass_normalize_shapes
@@ -69,7 +71,9 @@ __all__ = [
     "LSFDResult",
     "ModalParameters",
     "ModePairing",
+    "PLSCFIdentifier",
     "PLSCFResult",
+    "PeakIdentifier",
     "PeakPickingResult",
     "PoleSelection",
     "ShapeExpansion",
@@ -86,6 +90,7 @@ __all__ = [
     "identify_plscf",
     "lsfd",
     "mac",
+    "make_identifier",
     "mass_normalize_shapes",
     "modal_from_poles",
     "modal_scale_factor",

@@ -27,6 +27,7 @@ import numpy as np
 
 from truthbench.identify._common import as_shape_matrix, readonly
 from truthbench.identify.modal import ModalParameters
+from truthbench.presentation import Presentable, figure_axes
 
 
 def mac(phi_a, phi_b) -> np.ndarray:
@@ -143,8 +144,11 @@ def shape_error(phi_model, phi_test, *, relative: bool = False) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class ModePairing:
+class ModePairing(Presentable):
     """Pairs of model and test modes.
+
+    Table ``"pairs"`` (:meth:`to_pandas`): one row per pair. Figure ``"mac"``
+    (:meth:`plot`): the MAC matrix with the pairs marked.
 
     Attributes
     ----------
@@ -162,6 +166,9 @@ class ModePairing:
     mac_matrix : ndarray, shape (n_model, n_test)
         MAC of every model mode with every test mode on the mapped DOFs.
     """
+
+    TABLES = ("pairs",)
+    PLOTS = ("mac",)
 
     pairs: np.ndarray
     mac: np.ndarray
@@ -183,13 +190,23 @@ class ModePairing:
         ):
             object.__setattr__(self, name, readonly(getattr(self, name)))
 
-    def to_pandas(self):
-        """One row per pair: model and test index, MAC, frequency error, doubtful flag.
+    def _plot_mac(self, ax):
+        """The MAC of every model mode (rows) with every test mode (columns), the pairs
+        circled (doubtful ones thinner)."""
+        fig, (ax,) = figure_axes(ax, figsize=(5.5, 4.5))
+        image = ax.imshow(self.mac_matrix, vmin=0.0, vmax=1.0, cmap="Greys", origin="lower",
+                          aspect="auto")
+        for (m, t), doubtful in zip(self.pairs, self.doubtful, strict=True):
+            ax.plot(t, m, "o", mfc="none", mec="tab:red", ms=12,
+                    ls="none", mew=1.5 if not doubtful else 0.8)
+        fig.colorbar(image, ax=ax, label="MAC")
+        ax.set_xlabel("test mode")
+        ax.set_ylabel("model mode")
+        fig.tight_layout()
+        return fig
 
-        Returns
-        -------
-        pandas.DataFrame
-        """
+    def _table_pairs(self):
+        """One row per pair: model and test index, MAC, frequency error, doubtful flag."""
         import pandas as pd
 
         return pd.DataFrame(

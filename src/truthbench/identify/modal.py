@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from truthbench.identify._common import readonly
+from truthbench.presentation import Presentable, figure_axes
 
 
 def poles_from_modal(freq_hz, damping_ratio) -> np.ndarray:
@@ -49,8 +50,13 @@ def modal_from_poles(poles) -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class ModalParameters:
+class ModalParameters(Presentable):
     """Modal parameters of one identification or one model.
+
+    Tables (:meth:`to_pandas`): ``"modes"`` one row per mode, ``"shapes"`` one row per
+    (mode, output). Figures (:meth:`plot`): ``"shapes"`` the real part of every shape
+    (phase-aligned, largest component 1) over the outputs, ``"poles"`` the poles in the
+    s-plane.
 
     Parameters
     ----------
@@ -72,6 +78,9 @@ class ModalParameters:
     -----
     The arrays are stored as read-only copies. Modes are kept in the order given.
     """
+
+    TABLES = ("modes", "shapes")
+    PLOTS = ("shapes", "poles")
 
     freq_hz: np.ndarray
     damping_ratio: np.ndarray
@@ -166,15 +175,66 @@ class ModalParameters:
             output_labels=self.output_labels,
         )
 
-    def to_pandas(self):
-        """One row per mode: frequency, damping, pole and circular frequency.
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """The output labels, or ``"0"``, ``"1"``, ... when there are none."""
+        return self.output_labels or tuple(str(i) for i in range(self.n_out))
 
-        Returns
-        -------
-        pandas.DataFrame
-            Columns ``freq_hz``, ``damping_ratio``, ``omega_rad_s``, ``pole_real_rad_s``,
-            ``pole_imag_rad_s``; index ``mode`` (0-based).
-        """
+    def aligned_shapes(self) -> np.ndarray:
+        """The shapes rotated so that every column's largest component is real and
+        positive, scaled so that it is 1 (a zero column stays zero), shape (n_out,
+        n_modes)."""
+        phi = np.asarray(self.shapes, dtype=complex)
+        big = phi[np.argmax(np.abs(phi), axis=0), np.arange(self.n_modes)]
+        scale = np.where(big != 0, big, 1.0)
+        return phi / scale[None, :]
+
+    def _table_shapes(self):
+        """One row per (mode, output): columns mode, freq_hz, output, real, imag,
+        magnitude, phase_rad of the shapes as given."""
+        import pandas as pd
+
+        phi = np.asarray(self.shapes, dtype=complex)
+        mode, out = np.meshgrid(np.arange(self.n_modes), np.arange(self.n_out),
+                                indexing="ij")
+        values = phi.T.ravel()
+        return pd.DataFrame({
+            "mode": mode.ravel(), "freq_hz": self.freq_hz[mode.ravel()],
+            "output": np.array(self.labels, dtype=object)[out.ravel()],
+            "real": values.real, "imag": values.imag, "magnitude": np.abs(values),
+            "phase_rad": np.angle(values)})
+
+    def _plot_shapes(self, ax):
+        """The real part of every aligned shape (:meth:`aligned_shapes`) over the outputs,
+        one line per mode."""
+        fig, (ax,) = figure_axes(ax, figsize=(7, 4))
+        x = np.arange(self.n_out)
+        for r in range(self.n_modes):
+            ax.plot(x, self.aligned_shapes()[:, r].real, "o-",
+                    label=f"{r}: {self.freq_hz[r]:.4g} Hz")
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.set_xticks(x, self.labels, rotation=45 if self.n_out > 6 else 0)
+        ax.set_xlabel("output")
+        ax.set_ylabel("shape (largest component 1)")
+        if self.n_modes:
+            ax.legend(fontsize="small")
+        fig.tight_layout()
+        return fig
+
+    def _plot_poles(self, ax):
+        """The poles ``s`` in the s-plane (real part against imaginary part, rad/s)."""
+        fig, (ax,) = figure_axes(ax, figsize=(5, 4))
+        s = self.poles
+        ax.plot(s.real, s.imag, "x")
+        ax.set_xlabel("Re s [rad/s]")
+        ax.set_ylabel("Im s [rad/s]")
+        ax.grid(True, lw=0.3)
+        fig.tight_layout()
+        return fig
+
+    def _table_modes(self):
+        """One row per mode: columns ``freq_hz``, ``damping_ratio``, ``omega_rad_s``,
+        ``pole_real_rad_s``, ``pole_imag_rad_s``; index ``mode`` (0-based)."""
         import pandas as pd
 
         s = self.poles

@@ -41,16 +41,22 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from truthbench.identify._common import check_freq_frf, frf_power, readonly, select_band
 from truthbench.identify.modal import ModalParameters
+from truthbench.presentation import Presentable
+from truthbench.settings import Configurable, setting
 
 
 @dataclass(frozen=True)
-class PeakPickingResult:
+class PeakPickingResult(Presentable):
     """What :func:`peak_picking` found.
+
+    Table ``"modes"`` (:meth:`to_pandas`): one row per peak with both damping readings.
+    Figure ``"shapes"`` (:meth:`plot`): the shapes.
 
     Attributes
     ----------
@@ -66,6 +72,9 @@ class PeakPickingResult:
         ``Q``.
     """
 
+    TABLES = ("modes",)
+    PLOTS = ("shapes",)
+
     modal: ModalParameters
     peak_index: np.ndarray
     damping_half_power: np.ndarray
@@ -75,6 +84,20 @@ class PeakPickingResult:
     def __post_init__(self):
         for name in ("peak_index", "damping_half_power", "damping_amplification", "amplification"):
             object.__setattr__(self, name, readonly(getattr(self, name)))
+
+    def _table_modes(self):
+        """One row per peak: the modes' table (:class:`ModalParameters`) with
+        ``peak_index``, ``damping_half_power``, ``damping_amplification`` and
+        ``amplification``."""
+        df = self.modal.to_pandas("modes")
+        for name in ("peak_index", "damping_half_power", "damping_amplification",
+                     "amplification"):
+            df[name] = getattr(self, name)
+        return df
+
+    def _plot_shapes(self, ax):
+        """The shapes read at the peaks."""
+        return self.modal.plot("shapes", ax)
 
 
 def _parabola(y0: float, y1: float, y2: float) -> tuple[float, float]:
@@ -99,11 +122,34 @@ def _crossing(f: np.ndarray, y: np.ndarray, k: int, level: float, step: int) -> 
     return float("nan")
 
 
+@dataclass(frozen=True, kw_only=True)
+class PeakIdentifier(Configurable):
+    """The registered identifier ``"peak"``: peak picking with half-power damping
+    (:func:`peak_picking`, whose defaults are these), configured by its settings.
+
+    Calling it, ``identifier(freq_hz, frf, *, frf_type="displacement",
+    freq_range_hz=None)``, returns the :class:`ModalParameters`."""
+
+    name: ClassVar[str] = "peak"
+
+    n_modes: int | None = setting(
+        None, "Keep the n_modes most prominent peaks (unset: every peak above "
+        "min_prominence).", kind="int", low=1)
+    min_prominence: float = setting(
+        0.02, "Smallest peak prominence, a fraction of the peak indicator's maximum.",
+        low=0, low_open=True, high=1)
+
+    def __call__(self, freq_hz, frf, *, frf_type: str = "displacement",
+                 freq_range_hz: tuple[float, float] | None = None) -> ModalParameters:
+        return peak_picking(freq_hz, frf, frf_type=frf_type, freq_range_hz=freq_range_hz,
+                            **self.settings()).modal
+
+
 def peak_picking(
     freq_hz,
     frf,
     *,
-    n_modes: int | None = None,
+    n_modes: int | None = PeakIdentifier.n_modes,
     frf_type: str = "displacement",
     channel: tuple[int, int] | None = None,
     freq_range_hz: tuple[float, float] | None = None,
@@ -111,7 +157,7 @@ def peak_picking(
     reference: str | float = "static",
     shape_part: str = "imag",
     input_index: int = 0,
-    min_prominence: float = 0.02,
+    min_prominence: float = PeakIdentifier.min_prominence,
 ) -> PeakPickingResult:
     """Pick resonance peaks and read frequency, damping and shape from them.
 

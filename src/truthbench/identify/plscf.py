@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -60,6 +61,8 @@ from truthbench.errors import IdentifiabilityError
 from truthbench.identify._common import check_freq_frf, frf_power, readonly, select_band
 from truthbench.identify.lsfd import LSFDResult, lsfd, refine_poles
 from truthbench.identify.modal import ModalParameters, modal_from_poles
+from truthbench.presentation import Presentable, figure_axes
+from truthbench.settings import Configurable, setting
 
 #: Fewest orders a cluster of stable poles must come from to be a mode.
 MIN_STABLE_ORDERS = 3
@@ -99,12 +102,33 @@ class StabilityCriteria:
             raise ValueError(f"The 'mac_min' parameter must lie in [0, 1]; got {self.mac_min!r}.")
 
 
+@dataclass(frozen=True, kw_only=True)
+class PLSCFIdentifier(Configurable):
+    """The registered identifier ``"plscf"``: pLSCF, automatic pole selection and LSFD
+    (:func:`identify_plscf`, whose defaults are these), configured by its settings.
+
+    Calling it, ``identifier(freq_hz, frf, *, frf_type="displacement",
+    freq_range_hz=None)``, returns the :class:`ModalParameters`."""
+
+    name: ClassVar[str] = "plscf"
+
+    max_order: int = setting(
+        40, "Highest pLSCF model order (order n gives n x n_in poles); a rule of thumb: "
+        "max_order x n_in about 2-4 times twice the number of modes in the band.",
+        low=2, high=200)
+
+    def __call__(self, freq_hz, frf, *, frf_type: str = "displacement",
+                 freq_range_hz: tuple[float, float] | None = None) -> ModalParameters:
+        return identify_plscf(freq_hz, frf, frf_type=frf_type, freq_range_hz=freq_range_hz,
+                              **self.settings()).modal
+
+
 def _ro_tuple(arrays) -> tuple[np.ndarray, ...]:
     return tuple(readonly(a) for a in arrays)
 
 
 @dataclass(frozen=True)
-class StabilizationDiagram:
+class StabilizationDiagram(Presentable):
     """Poles of every model order and their stability flags.
 
     Attributes
@@ -124,6 +148,9 @@ class StabilizationDiagram:
         Band of the data used.
     criteria : StabilityCriteria
     """
+
+    TABLES = ("poles",)
+    PLOTS = ("diagram",)
 
     orders: np.ndarray
     poles: tuple
@@ -157,16 +184,10 @@ class StabilizationDiagram:
             )
         )
 
-    def to_pandas(self):
-        """Long table, one row per pole and order.
-
-        Returns
-        -------
-        pandas.DataFrame
-            Columns ``order``, ``freq_hz``, ``damping_ratio``, ``pole_real_rad_s``,
-            ``pole_imag_rad_s``, ``stable_freq``, ``stable_damping``, ``stable_vector``,
-            ``stable``, ``physical``.
-        """
+    def _table_poles(self):
+        """Long table, one row per pole and order: columns ``order``, ``freq_hz``,
+        ``damping_ratio``, ``pole_real_rad_s``, ``pole_imag_rad_s``, ``stable_freq``,
+        ``stable_damping``, ``stable_vector``, ``stable``, ``physical``."""
         import pandas as pd
 
         frames = []
@@ -191,7 +212,8 @@ class StabilizationDiagram:
             )
         return pd.concat(frames, ignore_index=True)
 
-    def plot(self, ax=None, *, freq_hz=None, frf=None, selected: ModalParameters | None = None):
+    def _plot_diagram(self, ax, *, freq_hz=None, frf=None,
+                      selected: ModalParameters | None = None):
         """Draw the stabilization diagram (order against frequency).
 
         Markers: open circle, a new pole; dot, stable in frequency; triangle, stable in
@@ -209,12 +231,9 @@ class StabilizationDiagram:
 
         Returns
         -------
-        matplotlib Axes
+        matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(8, 5))
+        fig, (ax,) = figure_axes(ax, figsize=(8, 5))
         styles = [
             ("new", dict(marker="o", mfc="none", mec="0.6", ms=4, ls="none")),
             ("freq", dict(marker=".", color="tab:blue", ms=5, ls="none")),
@@ -260,7 +279,7 @@ class StabilizationDiagram:
             ax2.set_ylabel("sum |H|")
             ax.set_zorder(ax2.get_zorder() + 1)  # markers above the FRF curve
             ax.patch.set_visible(False)
-        return ax
+        return fig
 
 
 @dataclass(frozen=True)
@@ -312,8 +331,12 @@ class PoleSelection:
 
 
 @dataclass(frozen=True)
-class PLSCFResult:
+class PLSCFResult(Presentable):
     """Everything :func:`identify_plscf` produced.
+
+    Tables (:meth:`to_pandas`): ``"modes"`` the selected modes, ``"poles"`` every pole of
+    the diagram. Figures (:meth:`plot`): ``"diagram"`` the stabilization diagram with the
+    selected frequencies, ``"shapes"`` the shapes.
 
     Attributes
     ----------
@@ -326,10 +349,30 @@ class PLSCFResult:
         Residues and residual terms (use for mass normalisation or reconstruction).
     """
 
+    TABLES = ("modes", "poles")
+    PLOTS = ("diagram", "shapes")
+
     modal: ModalParameters
     diagram: StabilizationDiagram
     selection: PoleSelection
     lsfd: LSFDResult
+
+    def _table_modes(self):
+        """One row per selected mode (:class:`ModalParameters`)."""
+        return self.modal.to_pandas("modes")
+
+    def _table_poles(self):
+        """One row per pole and order of the diagram."""
+        return self.diagram.to_pandas("poles")
+
+    def _plot_diagram(self, ax, **options):
+        """The stabilization diagram, the selected frequencies marked (options
+        ``freq_hz``, ``frf``: an FRF drawn behind it)."""
+        return self.diagram.plot("diagram", ax, selected=self.modal, **options)
+
+    def _plot_shapes(self, ax):
+        """The selected modes' shapes."""
+        return self.modal.plot("shapes", ax)
 
 
 def _lag_sums(theta: np.ndarray, H: np.ndarray, p: int):
@@ -395,7 +438,7 @@ def _mac_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def plscf_stabilization(
     freq_hz,
     frf,
-    max_order: int = 30,
+    max_order: int = PLSCFIdentifier.max_order,
     *,
     min_order: int = 1,
     freq_range_hz: tuple[float, float] | None = None,
@@ -752,7 +795,7 @@ def identify_plscf(
     freq_hz,
     frf,
     *,
-    max_order: int = 30,
+    max_order: int = PLSCFIdentifier.max_order,
     min_order: int = 1,
     frf_type: str = "displacement",
     freq_range_hz: tuple[float, float] | None = None,

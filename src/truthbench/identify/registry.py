@@ -1,70 +1,73 @@
-"""The identifiers of this room behind one small protocol, chosen by name.
+"""The identifiers of this room behind one small protocol, configured as objects, chosen by
+name.
 
-Every registered identifier is a function ``(freq_hz, frf, *, frf_type, **options) ->
-ModalParameters``; the shared contract test (``tests/identify/test_registry.py``) runs
-over all of them.
+An identifier is a frozen, keyword-only dataclass whose fields are its settings, each
+declared once with its default, unit and constraint (:func:`truthbench.settings.setting`:
+the campaign's ``[identify]`` table, the ``truthbench identify`` options and the
+functions that run the methods take theirs from there). It has a ``name`` (its registry
+key) and is called as ``identifier(freq_hz, frf, *, frf_type="displacement",
+freq_range_hz=None) -> ModalParameters``. :func:`make_identifier` builds one from a
+mapping of settings (those it declares; the rest are ignored). The shared contract test
+(``tests/identify/test_registry.py``) runs over every entry of :data:`IDENTIFIERS`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from types import MappingProxyType
-from typing import Protocol
+from collections.abc import Mapping
+from typing import Protocol, runtime_checkable
 
 from truthbench.identify.modal import ModalParameters
-from truthbench.identify.peak import peak_picking
-from truthbench.identify.plscf import identify_plscf
+from truthbench.identify.peak import PeakIdentifier
+from truthbench.identify.plscf import PLSCFIdentifier
+from truthbench.settings import Registry
 
 
+@runtime_checkable
 class Identifier(Protocol):
-    """Signature shared by the registered identifiers."""
+    """What every registered identifier provides."""
 
-    def __call__(
-        self, freq_hz, frf, *, frf_type: str = "displacement", **options
-    ) -> ModalParameters: ...
+    name: str
 
+    def settings(self) -> dict[str, object]: ...
 
-def _plscf(freq_hz, frf, *, frf_type: str = "displacement", **options) -> ModalParameters:
-    """pLSCF + automatic pole selection + LSFD (:func:`identify_plscf`)."""
-    return identify_plscf(freq_hz, frf, frf_type=frf_type, **options).modal
+    def __call__(self, freq_hz, frf, *, frf_type: str = "displacement",
+                 freq_range_hz: tuple[float, float] | None = None) -> ModalParameters: ...
 
 
-def _peak(freq_hz, frf, *, frf_type: str = "displacement", **options) -> ModalParameters:
-    """Peak picking with half-power damping (:func:`peak_picking`)."""
-    return peak_picking(freq_hz, frf, frf_type=frf_type, **options).modal
+_REGISTRY = Registry("identifier", ("__call__",))
+
+#: Read-only view of the registered identifier classes, by name.
+IDENTIFIERS = _REGISTRY.view
 
 
-_REGISTRY: dict[str, Callable[..., ModalParameters]] = {"plscf": _plscf, "peak": _peak}
+def register_identifier(cls: type, *, replace: bool = False) -> type:
+    """Register an identifier class under ``cls.name`` (``replace=True`` to overwrite);
+    usable as a class decorator."""
+    return _REGISTRY.register(cls, replace=replace)
 
-#: Read-only view of the registered identifiers, by name.
-IDENTIFIERS = MappingProxyType(_REGISTRY)
+
+def make_identifier(name: str, settings: Mapping[str, object] | None = None) -> Identifier:
+    """The identifier registered under ``name``, configured from ``settings`` (a mapping;
+    None for the defaults).
+
+    Raises
+    ------
+    ValueError
+        Unknown name (the message lists the registered ones) or a bad setting.
+    """
+    return _REGISTRY.make(name, settings)
 
 
 def get_identifier(name: str) -> Identifier:
-    """Return the identifier registered under ``name``.
+    """The identifier registered under ``name`` with its default settings.
 
     Raises
     ------
     ValueError
         If no identifier has that name (the message lists the known names).
     """
-    try:
-        return _REGISTRY[name]
-    except (KeyError, TypeError):
-        raise ValueError(
-            f"The 'name' parameter must be one of {sorted(_REGISTRY)}; got {name!r} instead."
-        ) from None
+    return make_identifier(name)
 
 
-def register_identifier(name: str, func: Identifier, *, replace: bool = False) -> None:
-    """Register ``func`` under ``name`` (``replace=True`` to overwrite an entry)."""
-    if not isinstance(name, str) or not name:
-        raise ValueError(f"The 'name' parameter must be a non-empty string; got {name!r}.")
-    if not callable(func):
-        raise ValueError(f"The 'func' parameter must be callable; got {type(func).__name__}.")
-    if name in _REGISTRY and not replace:
-        raise ValueError(
-            f"An identifier named {name!r} is already registered; pass replace=True to "
-            "overwrite it."
-        )
-    _REGISTRY[name] = func
+register_identifier(PLSCFIdentifier)
+register_identifier(PeakIdentifier)

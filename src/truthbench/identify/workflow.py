@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -44,8 +43,11 @@ import numpy as np
 
 from truthbench._validation import readonly
 from truthbench.identify.modal import ModalParameters, modal_from_poles, poles_from_modal
-from truthbench.identify.registry import get_identifier
+from truthbench.identify.peak import PeakIdentifier
+from truthbench.identify.plscf import PLSCFIdentifier
+from truthbench.identify.registry import Identifier, make_identifier
 from truthbench.measure.frfdata import FRFData
+from truthbench.presentation import Presentable, figure_axes
 from truthbench.quantities import MOTION_QUANTITIES
 
 __all__ = [
@@ -79,8 +81,12 @@ COHERENCE_FALSE_ALARM = 0.01
 
 
 @dataclass(frozen=True, eq=False)
-class DatasetIdentification:
+class DatasetIdentification(Presentable):
     """The modal parameters identified from one :class:`FRFData`.
+
+    Table ``"modes"`` (:meth:`to_pandas`): one row per mode (:meth:`table` without the
+    shapes). Figure ``"frf"`` (:meth:`plot`): ``sum |H|`` over the channels in the band
+    with the identified frequencies marked.
 
     Attributes
     ----------
@@ -100,6 +106,9 @@ class DatasetIdentification:
         Where ``band_hz`` came from (see :func:`default_band`).
     """
 
+    TABLES = ("modes",)
+    PLOTS = ("frf",)
+
     data: FRFData
     band_hz: tuple[float, float]
     modal: ModalParameters
@@ -116,7 +125,7 @@ class DatasetIdentification:
         damping_ratio_uncorrected, peak_magnitude and, for several outputs, ``shape``
         (real part of the shape scaled to a largest entry of 1, one value per output)."""
         rows = []
-        shapes = np.asarray(self.modal.shapes)
+        shapes = self.modal.aligned_shapes().real
         for r in range(self.n_modes):
             row = {
                 "mode": r + 1,
@@ -126,9 +135,36 @@ class DatasetIdentification:
                 "peak_magnitude": float(self.peak_magnitude[r]),
             }
             if shapes.shape[0] > 1:
-                row["shape"] = [float(v) for v in _real_shape(shapes[:, r])]
+                row["shape"] = [float(v) for v in shapes[:, r]]
             rows.append(row)
         return rows
+
+    def _table_modes(self):
+        """One row per mode: mode (1-based), freq_hz, damping_ratio,
+        damping_ratio_uncorrected, peak_magnitude."""
+        import pandas as pd
+
+        return pd.DataFrame([{k: v for k, v in row.items() if k != "shape"}
+                             for row in self.table()], columns=_MODE_COLUMNS)
+
+    def _plot_frf(self, ax):
+        """``sum |H|`` over the channels against frequency inside the band, the
+        identified frequencies marked."""
+        fig, (ax,) = figure_axes(ax, figsize=(7, 3.5))
+        self._draw(ax)
+        fig.tight_layout()
+        return fig
+
+    def _draw(self, ax) -> None:
+        f, H = self.data.freq_hz, self.data.H
+        inside = (f >= self.band_hz[0]) & (f <= self.band_hz[1])
+        ax.semilogy(f[inside], np.abs(H[inside]).reshape(int(inside.sum()), -1).sum(axis=1),
+                    lw=0.8, color="0.3")
+        for fr in self.modal.freq_hz:
+            ax.axvline(fr, color="tab:red", lw=0.6, ls="--")
+        ax.set_title(f"{self.data.name}: {self.n_modes} modes", fontsize="medium")
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel(f"sum |H| ({self.data.frf_type})")
 
     def strongest_ratios(self, count: int = 3) -> np.ndarray | None:
         """Frequency ratios to the lowest of the ``count`` strongest modes.
@@ -145,8 +181,11 @@ class DatasetIdentification:
 
 
 @dataclass(frozen=True, eq=False)
-class IdentifyReport:
+class IdentifyReport(Presentable):
     """What :func:`identify_file` found in one file.
+
+    Table ``"modes"`` (:meth:`to_pandas`): one row per (dataset, mode). Figure ``"frf"``
+    (:meth:`plot`): one panel per dataset (:class:`DatasetIdentification`).
 
     Attributes
     ----------
@@ -159,6 +198,9 @@ class IdentifyReport:
         Highest pLSCF model order (unused by ``"peak"``).
     datasets : tuple of DatasetIdentification
     """
+
+    TABLES = ("modes",)
+    PLOTS = ("frf",)
 
     path: Path
     file_format: str
@@ -191,34 +233,27 @@ class IdentifyReport:
             ],
         }
 
-    def to_pandas(self):
+    def _table_modes(self):
         """One row per (dataset, mode): dataset, mode, freq_hz, damping_ratio,
-        damping_ratio_uncorrected, peak_magnitude.
-
-        Returns
-        -------
-        pandas.DataFrame
-        """
+        damping_ratio_uncorrected, peak_magnitude."""
         import pandas as pd
 
-        rows = [
-            {"dataset": d.data.name, **{k: v for k, v in row.items() if k != "shape"}}
-            for d in self.datasets
-            for row in d.table()
-        ]
-        columns = ["dataset", "mode", "freq_hz", "damping_ratio",
-                   "damping_ratio_uncorrected", "peak_magnitude"]
-        return pd.DataFrame(rows, columns=columns)
+        rows = [{"dataset": d.data.name, **{k: v for k, v in row.items() if k != "shape"}}
+                for d in self.datasets for row in d.table()]
+        return pd.DataFrame(rows, columns=["dataset", *_MODE_COLUMNS])
+
+    def _plot_frf(self, ax):
+        """One panel per dataset: ``sum |H|`` with the identified frequencies."""
+        n = max(len(self.datasets), 1)
+        fig, axes = figure_axes(ax, n, figsize=(7, 2.8 * n))
+        for d, a in zip(self.datasets, axes, strict=False):
+            d._draw(a)
+        fig.tight_layout()
+        return fig
 
 
-def _real_shape(v: np.ndarray) -> np.ndarray:
-    """Rotate a complex shape so its largest entry is real positive; return the real
-    part scaled to a largest magnitude of 1."""
-    v = np.asarray(v, dtype=complex)
-    k = int(np.argmax(np.abs(v)))
-    if abs(v[k]) == 0:
-        return np.zeros(v.size)
-    return (v / v[k]).real
+_MODE_COLUMNS = ["mode", "freq_hz", "damping_ratio", "damping_ratio_uncorrected",
+                 "peak_magnitude"]
 
 
 def correct_exponential_window(modal: ModalParameters, sigma_w_rad_s: float) -> ModalParameters:
@@ -344,13 +379,6 @@ def _resolve_band(data: FRFData, band_hz, source: str) -> tuple[float, float, st
     return lo, hi, rule
 
 
-#: Options each registered identifier takes from :func:`identify_frfs`.
-_METHOD_OPTIONS: dict[str, Callable[[int, int | None], dict]] = {
-    "plscf": lambda max_order, n_modes: {"max_order": max_order},
-    "peak": lambda max_order, n_modes: {"n_modes": n_modes},
-}
-
-
 def _one_type(data: FRFData) -> FRFData:
     """``data`` with outputs of one motion quantity (strain as displacement; mixed
     quantities as displacement-equivalent)."""
@@ -363,9 +391,9 @@ def identify_frfs(
     data: FRFData,
     *,
     method: str = "plscf",
-    max_order: int = 30,
+    max_order: int | None = PLSCFIdentifier.max_order,
     band_hz: tuple[float, float] | None = None,
-    n_modes: int | None = None,
+    n_modes: int | None = PeakIdentifier.n_modes,
     source: str = "",
 ) -> DatasetIdentification:
     """Identify modal parameters from one :class:`FRFData`.
@@ -375,8 +403,9 @@ def identify_frfs(
     data : FRFData
     method : {"plscf", "peak"}
         A registered identifier (:data:`truthbench.identify.IDENTIFIERS`).
-    max_order : int
-        Highest pLSCF order.
+    max_order : int, optional
+        Highest pLSCF order (:class:`~truthbench.identify.PLSCFIdentifier`; None: its
+        default).
     band_hz : (float, float), optional
         Band in Hz; must lie inside the data. Default: :func:`default_band` (the data's
         excited band, else its coherent lines, else every line above 0 Hz).
@@ -394,13 +423,15 @@ def identify_frfs(
     Raises
     ------
     ValueError
-        Unknown method, band outside the data or with too few usable lines.
+        Unknown method, a bad setting, band outside the data or with too few usable
+        lines.
     """
-    if method not in _METHOD_OPTIONS:
-        get_identifier(method)  # raises with the list of registered names
-        raise ValueError(f"identify_frfs has no options for method {method!r}; expected "
-                         f"one of {sorted(_METHOD_OPTIONS)}")
-    identifier = get_identifier(method)
+    identifier = make_identifier(method, {"max_order": max_order, "n_modes": n_modes})
+    return _identify(data, identifier, band_hz, source)
+
+
+def _identify(data: FRFData, identifier: Identifier, band_hz, source: str
+              ) -> DatasetIdentification:
     data = _one_type(data)
     where = source or data.name
     *band, rule = _resolve_band(data, band_hz, where)
@@ -415,7 +446,7 @@ def identify_frfs(
             f"{where}: {int(np.count_nonzero(keep & ~finite))} line(s) of "
             f"{data.name!r} in the band {band[0]:g}-{band[1]:g} Hz hold non-finite FRF "
             f"values (e.g. a singular input spectrum); they are left out",
-            stacklevel=2,
+            stacklevel=3,
         )
     keep &= finite
     if np.count_nonzero(keep) < MIN_BAND_LINES:
@@ -424,8 +455,7 @@ def identify_frfs(
             f"{int(np.count_nonzero(keep))} usable (finite, above 0 Hz) lines of "
             f"{data.name!r}; expected at least {MIN_BAND_LINES}"
         )
-    raw = identifier(f[keep], H[keep], frf_type=data.frf_type, freq_range_hz=band,
-                     **_METHOD_OPTIONS[method](max_order, n_modes))
+    raw = identifier(f[keep], H[keep], frf_type=data.frf_type, freq_range_hz=band)
     order = np.argsort(raw.freq_hz)
     labelled = ModalParameters(
         freq_hz=raw.freq_hz[order], damping_ratio=raw.damping_ratio[order],
@@ -450,9 +480,9 @@ def identify_file(
     path: str | PathLike,
     *,
     method: str = "plscf",
-    max_order: int = 30,
+    max_order: int | None = PLSCFIdentifier.max_order,
     band_hz: tuple[float, float] | None = None,
-    n_modes: int | None = None,
+    n_modes: int | None = PeakIdentifier.n_modes,
     **read_options: Any,
 ) -> IdentifyReport:
     """Load a data file (:func:`truthbench.io.load_frf`) and identify every FRFData in it.
@@ -464,8 +494,9 @@ def identify_file(
         (``.lvm``).
     method : {"plscf", "peak"}
         Registered identifier.
-    max_order : int
-        Highest pLSCF order (``>= 2``).
+    max_order : int, optional
+        Highest pLSCF order (:class:`~truthbench.identify.PLSCFIdentifier`; None: its
+        default).
     band_hz : (float, float), optional
         Identification band, Hz, inside the data (default: per dataset, see the module
         notes).
@@ -493,16 +524,12 @@ def identify_file(
     """
     from truthbench.io import load_frf
 
-    if isinstance(max_order, bool) or not isinstance(max_order, int | np.integer) \
-            or max_order < 2:
-        raise ValueError(f"max_order must be an integer >= 2; got {max_order!r}")
+    identifier = make_identifier(method, {"max_order": max_order, "n_modes": n_modes})
     p = Path(path)
     frfs = load_frf(p, **read_options)
-    results = tuple(
-        identify_frfs(d, method=method, max_order=int(max_order), band_hz=band_hz,
-                      n_modes=n_modes, source=str(p))
-        for d in frfs
-    )
+    results = tuple(_identify(d, identifier, band_hz, str(p)) for d in frfs)
     fmt = _FORMATS.get(p.suffix.lower(), p.suffix.lower().lstrip("."))
-    return IdentifyReport(path=p, file_format=fmt, method=method, max_order=int(max_order),
+    order = PLSCFIdentifier.max_order if max_order is None else max_order
+    return IdentifyReport(path=p, file_format=fmt, method=method,
+                          max_order=identifier.settings().get("max_order", order),
                           datasets=results)

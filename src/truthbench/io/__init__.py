@@ -10,14 +10,13 @@
 - :mod:`truthbench.io.measurements`: :func:`load_measurements`, several data files as
   acquisition systems export them: coherence-only UFF files paired with their FRF sets,
   excitation levels (``input_rms_n``) by data-set name.
-- :mod:`truthbench.io.uff_frf`: :func:`read_uff` (the ``.uff`` / ``.unv`` reader: FRF
-  and coherence sets, units from dataset 164, points from 2411), :func:`read_uff_files`
-  (several files, coherence files paired by node, direction and load case) and
-  :func:`write_uff` (151, 164, 2411, 58), with the point numbering rule
-  :func:`number_points`.
-- :mod:`truthbench.io.uff`: the dataset-58 layer, :func:`write_uff58_frf`,
-  :func:`write_uff58_time`, :func:`read_uff58` -> :class:`UFFData` (raw arrays, through
-  pyuff).
+- :mod:`truthbench.io.uff_frf`: the UFF files: :func:`read_uff` (the ``.uff`` /
+  ``.unv`` reader: FRF and coherence sets, units from dataset 164, points from 2411),
+  :func:`read_uff_files` (several files, coherence files paired by node, direction and
+  load case) and :func:`write_uff` (151, 164, 2411, 58), with the point numbering rule
+  :func:`number_points` and the direction codes :data:`DIRECTION_CODES`
+  (:func:`direction_label`). Underneath, the private dataset-58 layer through pyuff
+  (:mod:`truthbench.io._uff58`).
 - :mod:`truthbench.io.lvm`: LabVIEW Measurement reader :func:`read_lvm` ->
   :class:`TimeRecord`, :func:`to_si`, and the shipped LADISK beam impact test
   :func:`ladisk_beam_impact`.
@@ -43,19 +42,10 @@ from truthbench.io.lvm import (
 from truthbench.io.measurements import load_measurements
 from truthbench.io.registry import load_frf, register_reader, registered_extensions
 from truthbench.io.time_records import frf_from_record, read_lvm_frf
-from truthbench.io.uff import (
-    DIRECTIONS,
-    FRF_TYPES,
-    NODE_OFFSET,
-    TIME_QUANTITIES,
-    UFFData,
-    read_uff58,
-    write_uff58_frf,
-    write_uff58_time,
-)
 from truthbench.io.uff_frf import (
     DIRECTION_CODES,
     PointNumbers,
+    direction_label,
     number_points,
     read_uff,
     read_uff_files,
@@ -70,19 +60,15 @@ register_reader(".uff", read_uff)
 register_reader(".unv", read_uff)
 
 __all__ = [
-    "DIRECTIONS",
     "DIRECTION_CODES",
-    "FRF_TYPES",
     "G_STANDARD_M_S2",
     "LADISK_BEAM_IMPACT_SHA256",
-    "NODE_OFFSET",
     "SI",
-    "TIME_QUANTITIES",
     "ImpactRecord",
     "PointNumbers",
     "TimeRecord",
-    "UFFData",
     "UnitSystem",
+    "direction_label",
     "frf_from_record",
     "ladisk_beam_impact",
     "load_frf",
@@ -93,12 +79,9 @@ __all__ = [
     "read_lvm",
     "read_lvm_frf",
     "read_uff",
-    "read_uff58",
     "read_uff_files",
     "register_reader",
     "registered_extensions",
     "to_si",
     "write_uff",
-    "write_uff58_frf",
-    "write_uff58_time",
 ]

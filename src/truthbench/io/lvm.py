@@ -53,6 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from truthbench.errors import DataFormatError
+from truthbench.presentation import Presentable, figure_axes
 
 __all__ = [
     "G_STANDARD_M_S2",
@@ -111,8 +112,12 @@ def _frozen_array(values: np.ndarray, dtype: type = np.float64) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class TimeRecord:
+class TimeRecord(Presentable):
     """Sampled time histories read from a measurement file.
+
+    Table ``"samples"`` (:meth:`to_pandas`): one row per sample, ``time_s`` and one
+    column per channel (units in ``DataFrame.attrs["units"]``). Figure ``"channels"``
+    (:meth:`plot`): one panel per channel against time.
 
     Parameters
     ----------
@@ -136,6 +141,9 @@ class TimeRecord:
         Raw header: ``{"file": {key: value}, "channel": {key: (value per channel)}}``
         with the strings as written (read-only mappings).
     """
+
+    TABLES = ("samples",)
+    PLOTS = ("channels",)
 
     data: np.ndarray
     dt_s: float
@@ -191,10 +199,35 @@ class TimeRecord:
         """Sample times in s, shape (n_samples,): ``x0_s + k * dt_s``."""
         return self.x0_s + np.arange(self.n_samples) * self.dt_s
 
+    def _table_samples(self):
+        """One row per sample: ``time_s`` and one column per channel (by name); the
+        channels' units in ``attrs["units"]``."""
+        import pandas as pd
+
+        df = pd.DataFrame({"time_s": self.time_s,
+                           **dict(zip(self.channel_names, self.data, strict=True))})
+        df.attrs["units"] = dict(zip(self.channel_names, self.units, strict=True))
+        return df
+
+    def _plot_channels(self, ax):
+        """One panel per channel against time."""
+        n = self.n_channels
+        fig, axes = figure_axes(ax, n, sharex=True, figsize=(7, 1.8 * n + 0.8))
+        for a, row, name, unit in zip(axes, self.data, self.channel_names, self.units,
+                                      strict=False):
+            a.plot(self.time_s, row, lw=0.7)
+            a.set_ylabel(f"{name} [{unit}]", fontsize="small")
+        axes[n - 1].set_xlabel("time [s]")
+        fig.tight_layout()
+        return fig
+
 
 @dataclass(frozen=True, eq=False)
-class ImpactRecord:
+class ImpactRecord(Presentable):
     """One impact-hammer test: force input and acceleration output, in SI units.
+
+    Table ``"samples"`` and figure ``"channels"``: those of its :class:`TimeRecord`
+    (every channel of the file, in SI).
 
     Parameters
     ----------
@@ -219,6 +252,9 @@ class ImpactRecord:
     g_m_s2 : float
         The value of g used to convert acceleration from g to m/s^2.
     """
+
+    TABLES = ("samples",)
+    PLOTS = ("channels",)
 
     inputs: np.ndarray
     outputs: np.ndarray
@@ -262,6 +298,14 @@ class ImpactRecord:
     def acceleration_m_s2(self) -> np.ndarray:
         """The (single) acceleration in m/s^2, shape (n_samples,)."""
         return self.outputs[0]
+
+    def _table_samples(self):
+        """The record's samples (:class:`TimeRecord`)."""
+        return self.record.to_pandas("samples")
+
+    def _plot_channels(self, ax):
+        """The record's channels against time."""
+        return self.record.plot("channels", ax)
 
 
 def _freeze_mapping(mapping: Mapping) -> Mapping:

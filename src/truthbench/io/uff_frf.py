@@ -2,7 +2,8 @@
 
 :func:`read_uff` is the ``.uff`` / ``.unv`` reader of :func:`truthbench.io.load_frf`;
 :func:`write_uff` writes FRFData for other tools. Both go through pyuff
-(:mod:`truthbench.io.uff` holds the dataset-58 layer).
+(the private :mod:`truthbench.io._uff58` holds the dataset-58 layer and the one table of
+direction codes, :data:`DIRECTION_CODES`).
 
 Reading
 -------
@@ -85,9 +86,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from truthbench.errors import DataFormatError
-from truthbench.io.uff import (
+from truthbench.io._uff58 import (
     _SAME_ABSCISSA_RTOL,
-    DIRECTIONS,
+    DIRECTION_CODES,
     _assemble_grid,
     _assemble_time,
     _base_set,
@@ -96,6 +97,8 @@ from truthbench.io.uff import (
     _plan_abscissa,
     _read_sets,
     _write_sets,
+    direction_label,
+    direction_name,
 )
 from truthbench.io.units import SI, UNIT_SYMBOLS, UnitSystem, parse_unit, quantity_dimension
 from truthbench.quantities import RESPONSE_QUANTITIES, by_uff_code, quantity
@@ -103,13 +106,9 @@ from truthbench.quantities import RESPONSE_QUANTITIES, by_uff_code, quantity
 if TYPE_CHECKING:
     from truthbench.measure.frfdata import Channel, FRFData
 
-__all__ = ["DIRECTION_CODES", "PointNumbers", "number_points", "read_uff", "read_uff_files",
-           "write_uff"]
+__all__ = ["DIRECTION_CODES", "PointNumbers", "direction_label", "number_points", "read_uff",
+           "read_uff_files", "write_uff"]
 
-DIRECTION_CODES = MappingProxyType({"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6})
-"""Channel direction -> UFF direction code (record 6); times ``Channel.sign``."""
-
-_DIRECTION_NAMES = {v: k for k, v in DIRECTION_CODES.items()}
 _FUNC_TIME, _FUNC_FRF, _FUNC_COHERENCE = 1, 4, 6
 _FREQUENCY_AXIS = (18, "Frequency", "Hz")
 _COHERENCE_AXIS = (0, "Coherence", "NONE")
@@ -454,7 +453,7 @@ def _set_where(d: Mapping, k: int, lc: int) -> str:
 def _response_quantity(p, d, k, lc, axis: str, allow_force: bool) -> str | None:
     """Quantity of the ordinate: from its data type, else from its unit label."""
     code = int(d.get(f"{axis}_spec_data_type", 0))
-    direction = _DIRECTION_NAMES.get(abs(int(d["rsp_dir"])))
+    direction = direction_name(d["rsp_dir"])
     q = by_uff_code(code) if code else None
     if q is not None:
         if q.name == "force" and not allow_force:
@@ -476,7 +475,7 @@ def _is_force_reference(d: Mapping) -> bool:
     if code:
         return code == quantity("force").uff_code
     parsed = parse_unit(str(d.get("orddenom_axis_units_lab", "")))
-    direction = _DIRECTION_NAMES.get(abs(int(d["ref_dir"])))
+    direction = direction_name(d["ref_dir"])
     return parsed is not None and parsed[1] == quantity_dimension("force", direction)
 
 
@@ -727,8 +726,8 @@ def _frf_group(f: _File, lc: int, selected, pool: Mapping[_CohKey, _Coherence],
             raise DataFormatError(
                 f"{p}: {where}: the response measures {q} here and {q_row[i]} in another "
                 f"set of the same response DOF; expected one quantity per response")
-        rdir = _DIRECTION_NAMES.get(abs(int(d["rsp_dir"])))
-        fdir = _DIRECTION_NAMES.get(abs(int(d["ref_dir"])))
+        rdir = direction_name(d["rsp_dir"])
+        fdir = direction_name(d["ref_dir"])
         num_dim = quantity_dimension(q, rdir)
         den_dim = quantity_dimension("force", fdir)
         frf_dim = tuple(a - b for a, b in zip(num_dim, den_dim, strict=True))
@@ -770,9 +769,9 @@ def _frf_group(f: _File, lc: int, selected, pool: Mapping[_CohKey, _Coherence],
     ours = "grid" in shared
 
     def channel(node, code, q, lab, ent):
-        direction = _DIRECTION_NAMES.get(abs(code))
+        direction = direction_name(code)
         return Channel(
-            lab or f"{node}:{DIRECTIONS.get(code, code)}", q, direction,
+            lab or f"{node}:{direction_label(code)}", q, direction,
             sign=-1 if code < 0 else 1, point=node if node > 0 else None,
             coordinates_m=f.geometry.get(node),
             station=ent if ours and ent and ent != "NONE" else None)
@@ -822,14 +821,14 @@ def _time_frf(f: _File, selected, options) -> FRFData:
     data = np.array(rec.data, dtype=float)
     for c, (k, d) in enumerate(selected):
         node, code = int(d["rsp_node"]), int(d["rsp_dir"])
-        direction = _DIRECTION_NAMES.get(abs(code))
+        direction = direction_name(code)
         q = _response_quantity(p, d, k, 0, "ordinate", allow_force=True)
         if q is not None:
             fac, _ = _axis_factor(p, d, k, int(d.get("load_case_id", 0)), "ordinate", q,
                                   direction, f.units)
             data[c] *= fac
         ent = str(d.get("rsp_ent_name", "")).strip()
-        names.append(ent if ent and ent != "NONE" else f"{node}:{DIRECTIONS.get(code, code)}")
+        names.append(ent if ent and ent != "NONE" else f"{node}:{direction_label(code)}")
         quantities.append(q)
         units.append(str(d.get("ordinate_axis_units_lab", "")).strip())
         details.append({"direction": direction, "sign": -1 if code < 0 else 1,

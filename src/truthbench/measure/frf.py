@@ -43,6 +43,7 @@ from typing import Any, Literal
 import numpy as np
 
 from truthbench.errors import IdentifiabilityError
+from truthbench.measure.leakage import Estimator
 from truthbench.measure.spectra import (
     Detrend,
     SpectralMatrices,
@@ -51,7 +52,8 @@ from truthbench.measure.spectra import (
     _read_only,
     _SettingError,
 )
-from truthbench.measure.windows import WindowSpec
+from truthbench.measure.windows import WINDOW_NAMES, WindowSpec
+from truthbench.presentation import Presentable
 
 __all__ = [
     "ESTIMATORS",
@@ -69,8 +71,11 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class FRFEstimate:
+class FRFEstimate(Presentable):
     """An estimated frequency response matrix with its coherence and settings.
+
+    Table ``"frf"`` (:meth:`to_pandas`): one row per (line, output, input). Figure
+    ``"frf"`` (:meth:`plot`): magnitude, phase and coherence.
 
     Attributes
     ----------
@@ -101,6 +106,9 @@ class FRFEstimate:
     -----
     Arrays are read-only views; the object is immutable.
     """
+
+    TABLES = ("frf",)
+    PLOTS = ("frf",)
 
     freq_hz: np.ndarray
     H: np.ndarray
@@ -163,17 +171,46 @@ class FRFEstimate:
         """Line spacing ``fs_hz / nperseg``, Hz."""
         return self.fs_hz / self.nperseg
 
-    def to_pandas(self) -> Any:
-        """Return the estimate as a long (tidy) :class:`pandas.DataFrame`.
+    def to_estimator(self, *, period_samples: int | None = None) -> Estimator:
+        """How this estimate was made, as the :class:`~truthbench.measure.leakage.Estimator`
+        an :class:`~truthbench.measure.FRFData` carries: window, segment (``nperseg``),
+        averages, rate and overlap.
 
-        Returns
-        -------
-        pandas.DataFrame
-            One row per (frequency, output, input) with columns ``freq_hz``, ``output``,
-            ``input``, ``H`` (complex), ``magnitude``, ``phase_rad``, ``coherence`` and
-            ``multiple_coherence`` (NaN if not available).  The settings are in
-            ``DataFrame.attrs``.
+        Parameters
+        ----------
+        period_samples : int, optional
+            The input's period, samples, when it was periodic (a whole number of
+            segments); None for a random input.
+
+        Raises
+        ------
+        ValueError
+            The window is not a plain named window (a parametrised one, an array, or a
+            separate input window), which the leakage model cannot describe.
         """
+        if self.window not in WINDOW_NAMES:
+            raise ValueError(f"FRFEstimate: the window {self.window!r} is not one of "
+                             f"{', '.join(WINDOW_NAMES)} without a parameter; the leakage "
+                             f"model (Estimator) describes only those")
+        return Estimator(self.window, self.nperseg, self.fs_hz, period_samples,
+                         averages=self.n_averages, overlap_samples=self.noverlap)
+
+    def _plot_frf(self, ax, **options):
+        """Magnitude, phase and coherence (outputs and inputs by index; options
+        ``inputs``, ``outputs`` as :func:`~truthbench.measure.frfdata.plot_frf`)."""
+        from truthbench.measure.frfdata import plot_frf
+
+        return plot_frf(self.freq_hz, self.H, self.coherence,
+                        [f"y{o}" for o in range(self.n_outputs)],
+                        [f"x{i}" for i in range(self.n_inputs)], "unit of y / unit of x",
+                        f"{self.estimator}, {self.window} window, {self.n_averages} "
+                        f"averages", ax, **options)
+
+    def _table_frf(self) -> Any:
+        """The estimate as a long (tidy) table: one row per (frequency, output, input)
+        with columns ``freq_hz``, ``output``, ``input``, ``H`` (complex), ``magnitude``,
+        ``phase_rad``, ``coherence`` and ``multiple_coherence`` (NaN if not available);
+        the settings are in ``DataFrame.attrs``."""
         import pandas as pd
 
         n_freq, n_out, n_in = self.H.shape

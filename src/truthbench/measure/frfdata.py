@@ -17,6 +17,7 @@ import numpy as np
 from truthbench._validation import check_array, check_choice, check_number, readonly
 from truthbench.errors import DataFormatError
 from truthbench.measure.leakage import Estimator
+from truthbench.presentation import Presentable, figure_axes
 from truthbench.quantities import QUANTITIES, convert_outputs, quantity
 
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
@@ -139,8 +140,11 @@ def channels_from_labels(labels: Sequence[str], quantities: Sequence[str]) -> tu
 
 
 @dataclass(frozen=True, eq=False)
-class FRFData:
+class FRFData(Presentable):
     """FRFs of one test, with their channels.
+
+    Table ``"frf"`` (:meth:`to_pandas`): one row per (line, output, input). Figure
+    ``"frf"`` (:meth:`plot`): magnitude, phase and coherence.
 
     Attributes
     ----------
@@ -156,7 +160,8 @@ class FRFData:
         Ordinary coherence in [0, 1], or None when the source has none.
     n_averages : int, optional
         Segments averaged in the estimate (the H1 variance scales with 1 / n_averages),
-        or None when unknown.
+        or None when unknown; the estimator's ``averages`` when it has them (given both,
+        they must agree).
     band_hz : (float, float), optional
         The usable band known from the source (excited band, force-spectrum rule), Hz.
     excitation : {"frf", "impact", "random"}
@@ -164,8 +169,10 @@ class FRFData:
     window_decay_rad_s : float
         Decay rate (1/s) an exponential window added to every pole; 0 if none.
     estimator : Estimator, optional
-        The averaged estimate's window and segments, when known (a model is compared
-        with the data through them, :mod:`truthbench.measure.leakage`).
+        How the averaged estimate was made (window, segment, averages, rate, overlap),
+        when known: a model is compared with the data through it
+        (:mod:`truthbench.measure.leakage`). Its ``averages`` and ``n_averages`` are one
+        number: a missing one is filled from the other.
     input_rms : tuple of float, optional
         The RMS of each input over the record (N or N m), when known: the excitation
         level, which amplitude-dependent effects (friction) depend on.
@@ -174,6 +181,9 @@ class FRFData:
 
     Arrays are read-only copies; the object is immutable.
     """
+
+    TABLES = ("frf",)
+    PLOTS = ("frf",)
 
     name: str
     freq_hz: np.ndarray
@@ -228,6 +238,19 @@ class FRFData:
                 raise ValueError(f"{where}: 'n_averages' must be a positive integer; got "
                                  f"{self.n_averages!r}")
             object.__setattr__(self, "n_averages", n)
+        if self.estimator is not None:
+            if not isinstance(self.estimator, Estimator):
+                raise ValueError(f"{where}: 'estimator' must be an Estimator; got "
+                                 f"{type(self.estimator).__name__}")
+            known = self.estimator.averages
+            if known is None and self.n_averages is not None:
+                object.__setattr__(self, "estimator",
+                                   replace(self.estimator, averages=self.n_averages))
+            elif self.n_averages is None:
+                object.__setattr__(self, "n_averages", known)
+            elif known != self.n_averages:
+                raise ValueError(f"{where}: 'n_averages' ({self.n_averages}) and the "
+                                 f"estimator's averages ({known}) must agree")
         check_choice("excitation", self.excitation, EXCITATIONS, where=where)
         if self.input_rms is not None:
             rms = tuple(float(v) for v in self.input_rms)
@@ -292,16 +315,10 @@ class FRFData:
                        notes=data.notes + (f"outputs converted to {target} (times "
                                            f"(j omega)^k)",))
 
-    def to_pandas(self):
+    def _table_frf(self):
         """Long table: one row per (line, output, input) with magnitude, phase and
-        coherence.
-
-        Returns
-        -------
-        pandas.DataFrame
-            Columns freq_hz, output, input, real, imag, magnitude, phase_rad, coherence
-            (NaN when the data carry none), unit.
-        """
+        coherence: columns freq_hz, output, input, real, imag, magnitude, phase_rad,
+        coherence (NaN when the data carry none), unit."""
         import pandas as pd
 
         n_f, n_o, n_i = self.H.shape
@@ -320,37 +337,44 @@ class FRFData:
             "unit": np.array(units, dtype=object)[(oi * n_i + ii).ravel()],
         })
 
-    def plot(self, ax=None, *, inputs: Sequence[int] | None = None,
-             outputs: Sequence[int] | None = None):
-        """Magnitude (log), phase and, when present, coherence against frequency.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        import matplotlib.pyplot as plt
-
-        rows = 3 if self.coherence is not None else 2
-        if ax is None:
-            fig, ax = plt.subplots(rows, 1, sharex=True, figsize=(7, 2.2 * rows + 1))
-        else:
-            fig = np.ravel(ax)[0].figure
-        ax = np.ravel(ax)
-        for i in (range(self.H.shape[2]) if inputs is None else inputs):
-            for o in (range(self.H.shape[1]) if outputs is None else outputs):
-                lab = f"{self.outputs[o].label} / {self.inputs[i].label}"
-                ax[0].semilogy(self.freq_hz, np.abs(self.H[:, o, i]), label=lab)
-                ax[1].plot(self.freq_hz, np.degrees(np.angle(self.H[:, o, i])))
-                if rows == 3:
-                    ax[2].plot(self.freq_hz, self.coherence[:, o, i])
+    def _plot_frf(self, ax, *, inputs: Sequence[int] | None = None,
+                  outputs: Sequence[int] | None = None):
+        """Magnitude (log), phase and, when present, coherence against frequency; options
+        ``inputs``, ``outputs``: the columns and rows drawn (default all)."""
         units = sorted({f"{o.unit}/{i.unit}" for o in self.outputs for i in self.inputs})
-        ax[0].set_ylabel(f"|H| [{', '.join(units)}]")
-        ax[1].set_ylabel("phase [deg]")
-        if rows == 3:
-            ax[2].set_ylabel("coherence [-]")
-            ax[2].set_ylim(0, 1.05)
-        ax[-1].set_xlabel("frequency [Hz]")
-        ax[0].set_title(self.name)
-        ax[0].legend(fontsize="small")
-        fig.tight_layout()
-        return fig
+        return plot_frf(self.freq_hz, self.H, self.coherence, self.output_labels,
+                        self.input_labels, ", ".join(units), self.name, ax,
+                        inputs=inputs, outputs=outputs)
+
+
+def plot_frf(freq_hz, H, coherence, output_labels, input_labels, unit: str, title: str,
+             ax=None, *, inputs: Sequence[int] | None = None,
+             outputs: Sequence[int] | None = None):
+    """Magnitude (log), phase (degrees) and, when ``coherence`` is given, coherence of
+    FRFs ``H`` (n_freq, n_out, n_in) against ``freq_hz`` (Hz), one line per (output,
+    input) of ``outputs`` x ``inputs`` (default all), on 2 or 3 stacked axes (``ax``: the
+    caller's, or a new figure).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    rows = 3 if coherence is not None else 2
+    fig, ax = figure_axes(ax, rows, sharex=True, figsize=(7, 2.2 * rows + 1))
+    for i in (range(H.shape[2]) if inputs is None else inputs):
+        for o in (range(H.shape[1]) if outputs is None else outputs):
+            ax[0].semilogy(freq_hz, np.abs(H[:, o, i]),
+                           label=f"{output_labels[o]} / {input_labels[i]}")
+            ax[1].plot(freq_hz, np.degrees(np.angle(H[:, o, i])))
+            if rows == 3:
+                ax[2].plot(freq_hz, coherence[:, o, i])
+    ax[0].set_ylabel(f"|H| [{unit}]")
+    ax[1].set_ylabel("phase [deg]")
+    if rows == 3:
+        ax[2].set_ylabel("coherence [-]")
+        ax[2].set_ylim(0, 1.05)
+    ax[rows - 1].set_xlabel("frequency [Hz]")
+    ax[0].set_title(title)
+    ax[0].legend(fontsize="small")
+    fig.tight_layout()
+    return fig

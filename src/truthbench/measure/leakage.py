@@ -61,33 +61,66 @@ class LeakageKernel:
 
 @dataclass(frozen=True)
 class Estimator:
-    """How an averaged FRF estimate was made: what :func:`h1_kernel` needs.
+    """How an averaged FRF estimate was made: its window, segments, averages, rate and
+    overlap (what :func:`h1_kernel` needs, and what an :class:`~truthbench.measure.FRFData`
+    carries about its estimate).
 
     Parameters
     ----------
     window : str
-        Segment window name.
+        Segment window name (:data:`~truthbench.measure.windows.WINDOW_NAMES`, without a
+        parameter).
     segment_samples : int
-        Segment length, samples.
+        Segment length, samples (>= 2).
     fs_hz : float
         Sampling rate, Hz.
     period_samples : int, optional
         The input's period when it was periodic (a whole number of segments), else None.
+    averages : int, optional
+        Segments averaged (the H1 variance scales with 1 / averages), None when unknown.
+    overlap_samples : int
+        Samples shared by consecutive segments, ``0 <= overlap < segment``.
+
+    The expected estimate (:meth:`kernel`) depends on the window, segment, rate and
+    period only; averages and overlap set its variance.
     """
 
     window: str
     segment_samples: int
     fs_hz: float
     period_samples: int | None = None
+    averages: int | None = None
+    overlap_samples: int = 0
+
+    def __post_init__(self):
+        where = "Estimator"
+        object.__setattr__(self, "segment_samples", check_number(
+            "segment_samples", self.segment_samples, low=2, integer=True, where=where))
+        object.__setattr__(self, "fs_hz", check_number("fs_hz", self.fs_hz, low=0,
+                                                       low_open=True, where=where))
+        if self.period_samples is not None:
+            object.__setattr__(self, "period_samples", check_number(
+                "period_samples", self.period_samples, low=self.segment_samples,
+                integer=True, where=where))
+        if self.averages is not None:
+            object.__setattr__(self, "averages", check_number(
+                "averages", self.averages, low=1, integer=True, where=where))
+        object.__setattr__(self, "overlap_samples", check_number(
+            "overlap_samples", self.overlap_samples, low=0, high=self.segment_samples,
+            high_open=True, integer=True, where=where))
 
     def kernel(self) -> LeakageKernel:
+        """The leakage kernel of this estimate (:func:`h1_kernel`)."""
         return h1_kernel(self.window, self.segment_samples, self.fs_hz,
                          period_samples=self.period_samples)
 
     def to_dict(self) -> dict:
+        """The fields as JSON-ready values (``Estimator(**d)`` rebuilds it)."""
         return {"window": self.window, "segment_samples": int(self.segment_samples),
                 "fs_hz": float(self.fs_hz), "period_samples": None
-                if self.period_samples is None else int(self.period_samples)}
+                if self.period_samples is None else int(self.period_samples),
+                "averages": None if self.averages is None else int(self.averages),
+                "overlap_samples": int(self.overlap_samples)}
 
 
 def h1_kernel(window: str, segment_samples: int, fs_hz: float, *,

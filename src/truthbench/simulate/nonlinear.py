@@ -92,6 +92,7 @@ import scipy.linalg
 
 from truthbench._validation import readonly
 from truthbench.errors import ConvergenceError, ModelError
+from truthbench.presentation import Presentable, figure_axes
 
 from . import _nonlinear_kernel as _kern
 from ._exact import (
@@ -693,8 +694,14 @@ def _engine(backend: str):
 
 
 @dataclass(frozen=True, eq=False)
-class NonlinearResult:
+class NonlinearResult(Presentable):
     """Sampled response of a system with nonlinear elements.
+
+    Tables (:meth:`to_pandas`): ``"outputs"`` one row per sample (``t_s``, ``y0``,
+    ``y1``, ...), ``"elements"`` one row per (sample, element), ``"events"`` one row per
+    element (stick events, reversals). Figures (:meth:`plot`): ``"outputs"`` the outputs
+    against time, ``"elements"`` every element's force against time and against its
+    velocity.
 
     Attributes
     ----------
@@ -717,6 +724,9 @@ class NonlinearResult:
         Sampling interval, s.
     """
 
+    TABLES = ("outputs", "elements", "events")
+    PLOTS = ("outputs", "elements")
+
     y: np.ndarray
     f_nl: np.ndarray
     displacement: np.ndarray
@@ -730,6 +740,59 @@ class NonlinearResult:
     def t_s(self) -> np.ndarray:
         """Sample times ``j dt``, s."""
         return self.dt * np.arange(self.y.shape[1])
+
+    def _table_outputs(self):
+        """One row per sample: ``t_s`` and ``y0``, ``y1``, ... (the outputs' units)."""
+        import pandas as pd
+
+        return pd.DataFrame({"t_s": self.t_s,
+                             **{f"y{k}": row for k, row in enumerate(self.y)}})
+
+    def _table_elements(self):
+        """One row per (sample, element): t_s, element, force, displacement, velocity,
+        stuck."""
+        import pandas as pd
+
+        n_nl, n = self.f_nl.shape
+        return pd.DataFrame({"t_s": np.tile(self.t_s, n_nl),
+                             "element": np.repeat(np.arange(n_nl), n),
+                             "force": self.f_nl.ravel(),
+                             "displacement": self.displacement.ravel(),
+                             "velocity": self.velocity.ravel(),
+                             "stuck": self.stuck.ravel()})
+
+    def _table_events(self):
+        """One row per element: ``n_stick_events``, ``n_reversals``."""
+        import pandas as pd
+
+        return pd.DataFrame({"n_stick_events": self.n_stick_events,
+                             "n_reversals": self.n_reversals},
+                            index=pd.RangeIndex(len(self.n_stick_events), name="element"))
+
+    def _plot_outputs(self, ax):
+        """The outputs against time."""
+        fig, (ax,) = figure_axes(ax, figsize=(7, 3.5))
+        for k, row in enumerate(self.y):
+            ax.plot(self.t_s, row, lw=0.8, label=f"y{k}")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("output")
+        ax.legend(fontsize="small")
+        fig.tight_layout()
+        return fig
+
+    def _plot_elements(self, ax):
+        """Every element's force against time (left) and against its velocity (right:
+        the hysteresis of friction)."""
+        fig, (left, right) = figure_axes(ax, 1, 2, figsize=(9, 3.5))
+        for k in range(self.f_nl.shape[0]):
+            left.plot(self.t_s, self.f_nl[k], lw=0.8, label=f"element {k}")
+            right.plot(self.velocity[k], self.f_nl[k], lw=0.6)
+        left.set_xlabel("time [s]")
+        left.set_ylabel("element force [N or N m]")
+        right.set_xlabel("element velocity [m/s or rad/s]")
+        left.legend(fontsize="small")
+        fig.tight_layout()
+        return fig
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,7 +8,8 @@
   against the number of points per window (METHOD section 4).
 
 Each study is a pure function returning a frozen result with ``.to_pandas()`` and
-``.plot(path)``; the command line (``truthbench study ...``) writes the CSV and PNG.
+``.plot()`` (a figure, :mod:`truthbench.presentation`); the command line
+(``truthbench study ...``) writes the CSV and PNG.
 """
 
 from truthbench.studies.damping_smoothing import (

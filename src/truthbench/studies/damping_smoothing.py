@@ -52,11 +52,12 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
 import numpy as np
+
+from truthbench.presentation import Presentable, figure_axes
 
 __all__ = [
     "DEFAULT_POINTS_PER_WINDOW",
@@ -108,8 +109,11 @@ def sdof_state_space(natural_freq_hz: float, damping_ratio: float,
 
 
 @dataclass(frozen=True, eq=False)
-class DampingSmoothingStudy:
+class DampingSmoothingStudy(Presentable):
     """Damping ratios read from smoothed FRF peaks, per window, method, N and repetition.
+
+    Table ``"summary"`` (:meth:`to_pandas`): one row per (window, method, points per
+    window). Figure ``"errors"`` (:meth:`plot`): the Figure 10.3 analogue.
 
     Attributes
     ----------
@@ -141,6 +145,9 @@ class DampingSmoothingStudy:
     floor_damping_ratio : Mapping
         Method -> damping read from the exact sampled-system FRF (the large-N limit).
     """
+
+    TABLES = ("summary",)
+    PLOTS = ("errors",)
 
     points_per_window: np.ndarray
     windows: tuple[str, ...]
@@ -204,16 +211,11 @@ class DampingSmoothingStudy:
             warnings.simplefilter("ignore", RuntimeWarning)
             return np.nanmean(e, axis=-1), np.nanstd(e, axis=-1)
 
-    def to_pandas(self):
-        """Summary table: one row per (window, method, points per window).
-
-        Returns
-        -------
-        pandas.DataFrame
-            Columns window, method, points_per_window, df_hz, df_over_br,
-            mean_damping_ratio, mean_error_pct, std_error_pct, mean_abs_error_pct,
-            mean_freq_error_pct, n_valid. Settings in ``DataFrame.attrs``.
-        """
+    def _table_summary(self):
+        """One row per (window, method, points per window): columns window, method,
+        points_per_window, df_hz, df_over_br, mean_damping_ratio, mean_error_pct,
+        std_error_pct, mean_abs_error_pct, mean_freq_error_pct, n_valid; the settings
+        in ``DataFrame.attrs``."""
         import pandas as pd
 
         rows = []
@@ -248,31 +250,14 @@ class DampingSmoothingStudy:
             floor_damping_ratio=dict(self.floor_damping_ratio))
         return frame
 
-    def plot(self, path: str | Path) -> Path:
-        """Write the Figure 10.3 analogue as PNG: error (%) against points per window.
-
-        Left: Bartlett, amplification and half-power readings, mean and +-1 std over the
-        repetitions, with the chapter's two quoted points. Right: the amplification
-        reading for every window.
-
-        Parameters
-        ----------
-        path : str or pathlib.Path
-
-        Returns
-        -------
-        pathlib.Path
-        """
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+    def _plot_errors(self, ax):
+        """The Figure 10.3 analogue: error (%) against points per window. Left: Bartlett,
+        amplification and half-power readings, mean and +-1 std over the repetitions,
+        with the chapter's two quoted points. Right: the amplification reading for every
+        window."""
         n = self.points_per_window
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True,
-                                 sharey=True)
+        fig, axes = figure_axes(ax, 1, 2, figsize=(11, 4.2), constrained_layout=True,
+                                sharey=True)
         first = self.windows[0]
         for method, style in zip(self.methods, ("o-", "s--"), strict=True):
             mean, std = self.error_stats(first, method)
@@ -296,9 +281,7 @@ class DampingSmoothingStudy:
             f"SDOF f_n = {self.natural_freq_hz:g} Hz, zeta = {self.damping_ratio:g}, "
             f"fs = {self.fs_hz:g} Hz, noise std = {self.noise_fraction:g} std(q), "
             f"{self.n_seeds} records per point (Fig. 10.3)")
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        return path
+        return fig
 
 
 def _read_damping(freq_hz, H, band_hz, reference):

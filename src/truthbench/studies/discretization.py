@@ -41,11 +41,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
 import numpy as np
+
+from truthbench.presentation import Presentable, figure_axes
 
 __all__ = [
     "DiscretizationStudy",
@@ -117,8 +118,11 @@ def free_free_shape(beta_l: float, xi) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class DiscretizationStudy:
+class DiscretizationStudy(Presentable):
     """Errors of the FE free-free beam against the exact Euler-Bernoulli solution.
+
+    Table ``"errors"`` (:meth:`to_pandas`): one row per (n_elements, mode). Figure
+    ``"errors"`` (:meth:`plot`): the Figure 10.2 analogue.
 
     Attributes
     ----------
@@ -141,6 +145,9 @@ class DiscretizationStudy:
         The tube: E_pa, nu, rho_kg_m3, r_m, t_m, L_m.
     """
 
+    TABLES = ("errors",)
+    PLOTS = ("errors",)
+
     n_elements: np.ndarray
     modes: tuple[int, ...]
     freq_exact_hz: np.ndarray
@@ -159,15 +166,9 @@ class DiscretizationStudy:
         object.__setattr__(self, "modes", tuple(int(m) for m in self.modes))
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
 
-    def to_pandas(self):
-        """Long table: one row per (n_elements, mode).
-
-        Returns
-        -------
-        pandas.DataFrame
-            Columns n_elements, mode, freq_exact_hz, freq_fe_hz, freq_error_pct,
-            one_minus_mac, shape_error.
-        """
+    def _table_errors(self):
+        """Long table: one row per (n_elements, mode): columns n_elements, mode,
+        freq_exact_hz, freq_fe_hz, freq_error_pct, one_minus_mac, shape_error."""
         import pandas as pd
 
         n, m = self.freq_fe_hz.shape
@@ -181,26 +182,10 @@ class DiscretizationStudy:
             "shape_error": self.shape_error.ravel(),
         })
 
-    def plot(self, path: str | Path) -> Path:
-        """Write the Figure 10.2 analogue (frequency and shape errors, log scale) as PNG.
-
-        Parameters
-        ----------
-        path : str or pathlib.Path
-            Output image file.
-
-        Returns
-        -------
-        pathlib.Path
-        """
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    def _plot_errors(self, ax):
+        """The Figure 10.2 analogue: frequency (left) and shape (right) errors against
+        the number of elements, log scale."""
+        fig, (ax1, ax2) = figure_axes(ax, 1, 2, figsize=(10, 4), constrained_layout=True)
         for k, mode in enumerate(self.modes):
             ax1.semilogy(self.n_elements, np.abs(self.freq_error_pct[:, k]), "o-", ms=3,
                          label=f"mode {mode} ({self.freq_exact_hz[k]:.1f} Hz)")
@@ -216,9 +201,7 @@ class DiscretizationStudy:
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=8)
         fig.suptitle("Free-free tube beam, x-z bending: discretization error (Fig. 10.2)")
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        return path
+        return fig
 
 
 def _one_minus_mac(a: np.ndarray, b: np.ndarray) -> float:

@@ -43,6 +43,7 @@ import numpy as np
 from scipy import stats
 
 from truthbench._validation import readonly
+from truthbench.presentation import Presentable
 
 CI_METHODS = ("wilson", "clopper-pearson", "trial-clustered")
 
@@ -277,8 +278,12 @@ def bound_coverage(theta_tests, theta_true=None, *, k: float = 3.0, confidence: 
 
 
 @dataclass(frozen=True)
-class CalibrationCurve:
+class CalibrationCurve(Presentable):
     """Observed coverage of ``k``-sigma bounds against normal theory.
+
+    Table ``"calibration"`` (:meth:`to_pandas`): one row per ``k``. Figure
+    ``"calibration"`` (:meth:`plot`): the observed coverage with its interval and the
+    expectations (:func:`~truthbench.uncertainty.plots.plot_calibration`).
 
     Attributes
     ----------
@@ -297,6 +302,9 @@ class CalibrationCurve:
     confidence : float
     """
 
+    TABLES = ("calibration",)
+    PLOTS = ("calibration",)
+
     k: np.ndarray
     coverage: np.ndarray
     ci_low: np.ndarray
@@ -308,7 +316,7 @@ class CalibrationCurve:
     in_sample: bool = False
     confidence: float = 0.95
 
-    def to_pandas(self):
+    def _table_calibration(self):
         """One row per ``k``: ``coverage``, ``ci_low``, ``ci_high``,
         ``expected_normal``, ``expected_t``."""
         import pandas as pd
@@ -318,8 +326,8 @@ class CalibrationCurve:
             "expected_normal": self.expected_normal, "expected_t": self.expected_t,
         }, index=pd.Index(self.k, name="k"))
 
-    def plot(self, ax=None):
-        """Draw with :func:`truthbench.uncertainty.plots.plot_calibration`."""
+    def _plot_calibration(self, ax):
+        """Drawn by :func:`truthbench.uncertainty.plots.plot_calibration`."""
         from truthbench.uncertainty.plots import plot_calibration
 
         return plot_calibration(self, ax=ax)

@@ -33,6 +33,7 @@ import numpy as np
 from scipy import stats
 
 from truthbench._validation import readonly
+from truthbench.presentation import Presentable, figure_axes
 
 
 def expected_frf_coverage(k=3.0, n_tests: int | None = None):
@@ -64,8 +65,12 @@ def expected_frf_coverage(k=3.0, n_tests: int | None = None):
 
 
 @dataclass(frozen=True)
-class FrfUncertainty:
+class FrfUncertainty(Presentable):
     """Mean FRF and its real/imaginary covariance over ``T`` tests.
+
+    Table ``"lines"`` (:meth:`to_pandas`): one row per line and input-output pair.
+    Figure ``"magnitude"`` (:meth:`plot`): ``|Hbar|`` with its ``k``-sigma band, one
+    panel per input-output pair (options ``outputs``, ``inputs``: which).
 
     Attributes
     ----------
@@ -77,6 +82,9 @@ class FrfUncertainty:
     k_sigma : float
     freq_hz : ndarray, shape (n_freq,), or None
     """
+
+    TABLES = ("lines",)
+    PLOTS = ("magnitude",)
 
     mean: np.ndarray
     cov: np.ndarray
@@ -177,16 +185,32 @@ class FrfUncertainty:
         :func:`expected_frf_coverage`)."""
         return float(np.mean(self.contains(H)))
 
-    def to_pandas(self):
-        """One row per line and input-output pair.
+    def _plot_magnitude(self, ax, *, outputs=None, inputs=None):
+        """``|Hbar|`` and its band ``|Hbar| -+ k sigma_|H|`` against frequency (or the
+        line index when the frequencies are not known), one panel per pair."""
+        _, no, ni = self.mean.shape
+        pairs = [(o, i) for i in (range(ni) if inputs is None else inputs)
+                 for o in (range(no) if outputs is None else outputs)]
+        fig, axes = figure_axes(ax, len(pairs), sharex=True,
+                                figsize=(7, 2.2 * len(pairs) + 0.8))
+        x = self.freq_hz if self.freq_hz is not None else np.arange(self.mean.shape[0])
+        low, high = self.magnitude_band()
+        for a, (o, i) in zip(axes, pairs, strict=False):
+            a.fill_between(x, np.maximum(low[:, o, i], 1e-300), high[:, o, i], color="C0",
+                           alpha=0.25, lw=0, label=f"{self.k_sigma:g}-sigma band")
+            a.semilogy(x, np.abs(self.mean[:, o, i]), color="C0", lw=1.0, label="mean")
+            a.set_ylabel(f"|H| y{o}/x{i}")
+        axes[0].legend(fontsize="small")
+        axes[len(pairs) - 1].set_xlabel("frequency [Hz]" if self.freq_hz is not None
+                                        else "line")
+        axes[0].set_title(f"mean FRF over {self.n_tests} tests", fontsize="medium")
+        fig.tight_layout()
+        return fig
 
-        Returns
-        -------
-        pandas.DataFrame
-            MultiIndex ``(line, output, input)``; columns ``freq_hz`` (if known),
-            ``mean_real``, ``mean_imag``, ``std_real``, ``std_imag``, ``corr_real_imag``,
-            ``std_magnitude``, ``std_phase_rad``.
-        """
+    def _table_lines(self):
+        """One row per line and input-output pair: MultiIndex ``(line, output, input)``;
+        columns ``freq_hz`` (if known), ``mean_real``, ``mean_imag``, ``std_real``,
+        ``std_imag``, ``corr_real_imag``, ``std_magnitude``, ``std_phase_rad``."""
         import pandas as pd
 
         nf, no, ni = self.mean.shape

@@ -58,6 +58,7 @@ import numpy as np
 
 from truthbench._validation import readonly
 from truthbench.errors import IdentifiabilityError
+from truthbench.presentation import Presentable, figure_axes
 
 ESTIMATORS = ("chapter", "unbiased")
 COVARIANCES = ("full", "diagonal")
@@ -74,8 +75,13 @@ def _as_2d(name: str, a) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class UncertaintyModel:
+class UncertaintyModel(Presentable):
     """The mean error and the bound of a set of parameters over ``T`` tests.
+
+    Tables (:meth:`to_pandas`): ``"parameters"`` one row per parameter (mean error,
+    standard deviation, bound), ``"errors"`` one row per (test, parameter). Figure
+    ``"errors"`` (:meth:`plot`): every test's error in standard deviations from the mean
+    error, with the bound at ``+-k_sigma``.
 
     Attributes
     ----------
@@ -99,6 +105,9 @@ class UncertaintyModel:
     covariance : str
         ``"full"`` or ``"diagonal"``.
     """
+
+    TABLES = ("parameters", "errors")
+    PLOTS = ("errors",)
 
     names: tuple[str, ...]
     theta_0: np.ndarray
@@ -190,16 +199,46 @@ class UncertaintyModel:
                              f"length {self.n_parameters}; got shape {x.shape}.")
         return np.abs(x - self.mean_model) <= self.bound
 
-    def to_pandas(self):
-        """One row per parameter.
+    def _standardised(self) -> np.ndarray:
+        """``(delta - mean) / std`` per test and parameter, shape (T, p) (NaN where the
+        standard deviation is 0)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.std > 0, (self.delta - self.mean)
+                            / np.where(self.std > 0, self.std, 1.0), np.nan)
 
-        Returns
-        -------
-        pandas.DataFrame
-            Index ``parameter``; columns ``theta_0``, ``mean_error``, ``std``,
-            ``bound``, ``mean_model``, ``lower``, ``upper``, ``weight_total``,
-            ``bias_factor``.
-        """
+    def _table_errors(self):
+        """One row per (test, parameter): test (0-based), parameter, error
+        ``theta_j - theta_0``, weight, and the error in standard deviations from the
+        mean error (``standardised``)."""
+        import pandas as pd
+
+        T, p = self.delta.shape
+        return pd.DataFrame({
+            "test": np.repeat(np.arange(T), p),
+            "parameter": np.tile(np.array(self.names, dtype=object), T),
+            "error": self.delta.ravel(), "weight": self.weights.ravel(),
+            "standardised": self._standardised().ravel()})
+
+    def _plot_errors(self, ax):
+        """Every test's error in standard deviations from the mean error, per parameter,
+        with the bound at ``+-k_sigma``: a unit-free view of all parameters."""
+        fig, (ax,) = figure_axes(ax, figsize=(max(5.0, 0.5 * self.n_parameters + 2), 4))
+        x = np.arange(self.n_parameters)
+        for j, row in enumerate(self._standardised()):
+            ax.plot(x, row, "o", mfc="none", ms=5, label=f"test {j}" if j < 10 else None)
+        for k in (-self.k_sigma, self.k_sigma):
+            ax.axhline(k, color="k", ls="--", lw=0.8)
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.set_xticks(x, self.names, rotation=45, ha="right")
+        ax.set_ylabel("(error - mean error) / std")
+        ax.set_title(f"{self.n_tests} tests, bound +-{self.k_sigma:g} std", fontsize="medium")
+        fig.tight_layout()
+        return fig
+
+    def _table_parameters(self):
+        """One row per parameter: index ``parameter``; columns ``theta_0``,
+        ``mean_error``, ``std``, ``bound``, ``mean_model``, ``lower``, ``upper``,
+        ``weight_total``, ``bias_factor``."""
         import pandas as pd
 
         df = pd.DataFrame({

@@ -1,29 +1,17 @@
 """Figures of the uncertainty model: the pole plot of Figure 10.6 and a calibration plot.
 
-matplotlib is imported inside the functions with the Agg backend when no backend has
-been chosen; each function draws on a given ``ax`` or on a new figure and returns the
-figure. Nothing is computed here that the uncertainty functions do not already give,
-except the mapping of the (omega, zeta) box into the s-plane.
+Each function draws on a given ``ax`` or on a new pyplot figure and returns the figure;
+no backend is chosen here (:mod:`truthbench.presentation`). Nothing is computed here that
+the uncertainty functions do not already give, except the mapping of the (omega, zeta)
+box into the s-plane.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from truthbench.presentation import figure_axes
 from truthbench.uncertainty.model import uncertainty_model
-
-
-def _pyplot():
-    import matplotlib
-
-    if matplotlib.get_backend().lower() not in ("agg", "pdf", "svg", "ps", "cairo"):
-        try:
-            matplotlib.use("Agg")
-        except Exception:  # noqa: BLE001 - an interactive backend already in use
-            pass
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def pole(omega_rad_s, damping_ratio) -> np.ndarray:
@@ -111,9 +99,7 @@ def plot_pole_bound(freq_hz_tests, damping_tests, *, freq_hz_fem=None, damping_f
     um = uncertainty_model(theta, t0, weights=weights, k_sigma=k_sigma, covariance="diagonal",
                            names=[f"omega{i}_rad_s" for i in range(m)]
                            + [f"zeta{i}" for i in range(m)])
-    plt = _pyplot()
-    fig = ax.figure if ax is not None else plt.figure(figsize=(6.0, 5.0))
-    ax = ax if ax is not None else fig.add_subplot(1, 1, 1)
+    fig, (ax,) = figure_axes(ax, figsize=(6.0, 5.0))
     s_tests = pole(theta[:, :m], theta[:, m:])
     markers = "os^vD<>ph*"
     for j in range(T):
@@ -155,9 +141,7 @@ def plot_calibration(curve, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    plt = _pyplot()
-    fig = ax.figure if ax is not None else plt.figure(figsize=(6.0, 4.5))
-    ax = ax if ax is not None else fig.add_subplot(1, 1, 1)
+    fig, (ax,) = figure_axes(ax, figsize=(6.0, 4.5))
     k = np.asarray(curve.k)
     ax.fill_between(k, curve.ci_low, curve.ci_high, color="C0", alpha=0.25,
                     label=f"{100 * curve.confidence:.0f} % interval")

@@ -3,6 +3,8 @@ localization, the one identifiability check, and the registry of updaters config
 objects."""
 
 from truthbench.update.finite_difference import (
+    FiniteDifferenceUpdater,
+    IterationSettings,
     UpdateResult,
     finite_difference_update,
     sensitivity_matrix,
@@ -22,8 +24,6 @@ from truthbench.update.predictor import (
 )
 from truthbench.update.registry import (
     UPDATERS,
-    FiniteDifferenceUpdater,
-    SensitivityUpdater,
     UpdateProblem,
     Updater,
     get_updater,
@@ -34,16 +34,16 @@ from truthbench.update.sensitivity import (
     MeasuredModes,
     ModalPairs,
     SensitivityResult,
+    SensitivityUpdater,
     damping_sensitivities,
     eigen_sensitivities,
     sensitivity_update,
 )
 
 __all__ = ["APPENDED_PARAMETERS", "UPDATERS", "EffectTerm", "FRFPredictor",
-           "FiniteDifferenceUpdater", "Macroelement", "MeasuredModes", "ModalPairs",
-           "PredictedTest", "SensitivityResult", "SensitivityUpdater", "SystemMatrices",
-           "UpdateProblem", "UpdateResult", "Updater", "check_identifiable",
+           "FiniteDifferenceUpdater", "IterationSettings", "Macroelement", "MeasuredModes",
+           "ModalPairs", "PredictedTest", "SensitivityResult", "SensitivityUpdater",
+           "SystemMatrices", "UpdateProblem", "UpdateResult", "Updater", "check_identifiable",
            "check_overdetermined", "damping_sensitivities", "eigen_sensitivities",
-           "finite_difference_update", "get_updater", "macroelement_matrices",
-           "make_updater", "register_updater", "sensitivity_matrix", "sensitivity_update",
-           "system_matrices"]
+           "finite_difference_update", "get_updater", "macroelement_matrices", "make_updater",
+           "register_updater", "sensitivity_matrix", "sensitivity_update", "system_matrices"]

@@ -23,15 +23,27 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from truthbench.presentation import Presentable, figure_axes
+from truthbench.settings import Configurable, setting
 from truthbench.update.identifiability import check_identifiable, check_overdetermined
+
+if TYPE_CHECKING:
+    from truthbench.update.registry import UpdateProblem
 
 
 @dataclass(frozen=True)
-class UpdateResult:
+class UpdateResult(Presentable):
     """Outcome of a model update.
+
+    Tables (:meth:`to_pandas`): ``"parameters"`` one row per parameter (start, result,
+    change), ``"history"`` one row per iteration (cost and every parameter),
+    ``"correlation"`` the parameter correlation matrix. Figures (:meth:`plot`):
+    ``"history"`` the parameters' relative change and the cost against the iteration,
+    ``"correlation"`` the correlation matrix.
 
     Attributes
     ----------
@@ -54,6 +66,9 @@ class UpdateResult:
     method : str
     """
 
+    TABLES = ("parameters", "history", "correlation")
+    PLOTS = ("history", "correlation")
+
     names: tuple[str, ...]
     initial: np.ndarray
     values: np.ndarray
@@ -69,8 +84,129 @@ class UpdateResult:
     def n_iterations(self) -> int:
         return len(self.history) - 1
 
+    def _changes(self, values: np.ndarray) -> np.ndarray:
+        """``values / initial - 1`` per parameter, or ``values - initial`` (the
+        parameter's unit) where it started at 0 (an additive parameter)."""
+        x0 = np.asarray(self.initial, dtype=float)
+        zero = x0 == 0
+        return np.where(zero, values - x0, values / np.where(zero, 1.0, x0) - 1.0)
+
+    def _table_parameters(self):
+        """One row per parameter: parameter, initial, value, change (``value / initial -
+        1``, or ``value - initial`` for a parameter that started at 0), method."""
+        import pandas as pd
+
+        return pd.DataFrame({"parameter": list(self.names), "initial": self.initial,
+                             "value": self.values, "change": self._changes(self.values),
+                             "method": self.method})
+
+    def _table_history(self):
+        """One row per entry of ``history`` (0: the start): iteration, cost and every
+        parameter's value."""
+        import pandas as pd
+
+        df = pd.DataFrame(np.asarray(self.history), columns=list(self.names))
+        df.insert(0, "cost", self.cost_history)
+        df.insert(0, "iteration", np.arange(len(self.history)))
+        return df
+
+    def _table_correlation(self):
+        """The parameter correlation matrix, parameters as index and columns."""
+        import pandas as pd
+
+        return pd.DataFrame(self.correlation, index=list(self.names),
+                            columns=list(self.names))
+
+    def _plot_history(self, ax):
+        """Every parameter's change from its start and the cost, against the
+        iteration."""
+        fig, (top, bottom) = figure_axes(ax, 2, sharex=True, figsize=(7, 5))
+        it = np.arange(len(self.history))
+        changes = self._changes(np.asarray(self.history))
+        for k, name in enumerate(self.names):
+            top.plot(it, changes[:, k], "o-", ms=3, label=name)
+        top.set_ylabel("change from start")
+        top.legend(fontsize="small")
+        bottom.semilogy(it, self.cost_history, "o-", ms=3, color="0.3")
+        bottom.set_ylabel("cost")
+        bottom.set_xlabel("iteration")
+        top.set_title(f"{self.method}: {'converged' if self.converged else 'not converged'}"
+                      f" in {self.n_iterations} iterations", fontsize="medium")
+        fig.tight_layout()
+        return fig
+
+    def _plot_correlation(self, ax):
+        """The parameter correlation matrix (-1 to 1)."""
+        fig, (ax,) = figure_axes(ax, figsize=(5, 4))
+        image = ax.imshow(self.correlation, vmin=-1.0, vmax=1.0, cmap="RdBu_r")
+        ticks = np.arange(len(self.names))
+        ax.set_xticks(ticks, self.names, rotation=45, ha="right")
+        ax.set_yticks(ticks, self.names)
+        fig.colorbar(image, ax=ax, label="correlation")
+        fig.tight_layout()
+        return fig
+
     def as_dict(self) -> dict[str, float]:
         return dict(zip(self.names, self.values.tolist(), strict=True))
+
+
+@dataclass(frozen=True, kw_only=True)
+class IterationSettings(Configurable):
+    """The settings every iterated updater shares, declared once: the campaign's
+    ``[update]`` table gives each of them to every updater that runs."""
+
+    needs: ClassVar[frozenset[str]] = frozenset()
+
+    max_iterations: int = setting(30, "Largest number of parameter updates.", low=1)
+    tolerance: float = setting(
+        1e-7, "Convergence: the update stops when an iteration changes no parameter by "
+        "more than this (a relative change, the step in log-parameters; additive "
+        "parameters in units of their scale).", low=0, low_open=True)
+    rcond: float = setting(
+        1e-4, "Relative singular value of the column-scaled, weighted sensitivity matrix "
+        "below which parameters are declared inseparable (at 1e-4 the data's noise would "
+        "be amplified ten thousand times along that direction).", low=0, low_open=True,
+        high=1, high_open=True)
+    max_step: float = setting(
+        0.5, "Trust region: the largest change of any log-parameter in one iteration "
+        "(0.5 is a factor of 1.65).", low=0, low_open=True)
+
+    def _require(self, problem: UpdateProblem, hint: str = "") -> None:
+        missing = problem.missing(sorted(self.needs))
+        if missing:
+            raise ValueError(f"updater {self.name!r} needs {missing} in the UpdateProblem; "
+                             f"got None for {'it' if len(missing) == 1 else 'them'}{hint}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class FiniteDifferenceUpdater(IterationSettings):
+    """Finite-difference FRF updating (METHOD 5.1, :func:`finite_difference_update`,
+    whose defaults are these). Needs ``predict_frf``, ``frf_data`` and ``n_pairs`` of the
+    :class:`~truthbench.update.UpdateProblem`; uses ``frf_weights`` and ``additive``.
+    Updates any parameter the predictor can vary."""
+
+    name: ClassVar[str] = "finite_difference"
+    needs: ClassVar[frozenset[str]] = frozenset({"frf"})
+
+    relative_step: float = setting(
+        1e-4, "Finite-difference step, relative to the parameter (or in units of an "
+        "additive parameter's scale).", low=0, low_open=True, high=0.1, high_open=True)
+    scheme: str = setting("central", "Finite differences: central (second order) or "
+                          "forward (half the model evaluations).",
+                          choices=("central", "forward"))
+
+    def unsupported(self, kinds: Mapping[str, str]) -> dict[str, str]:
+        """Parameters it cannot update, with the reason: none."""
+        return {}
+
+    def update(self, problem: UpdateProblem) -> UpdateResult:
+        """Update ``problem.names`` against the problem's FRFs."""
+        self._require(problem)
+        return finite_difference_update(
+            problem.predict_frf, problem.frf_data, problem.theta0, problem.names,
+            n_pairs=int(problem.n_pairs), weights=problem.frf_weights,
+            additive=dict(problem.additive) if problem.additive else None,
+            **self.settings())
 
 
 def _stack(z: np.ndarray) -> np.ndarray:
@@ -151,12 +287,12 @@ def finite_difference_update(
     *,
     n_pairs: int | None,
     weights: np.ndarray | None = None,
-    max_iterations: int = 20,
-    tolerance: float = 1e-6,
-    relative_step: float = 1e-4,
-    scheme: str = "central",
-    rcond: float = 1e-4,
-    max_step: float = 0.5,
+    max_iterations: int = FiniteDifferenceUpdater.max_iterations,
+    tolerance: float = FiniteDifferenceUpdater.tolerance,
+    relative_step: float = FiniteDifferenceUpdater.relative_step,
+    scheme: str = FiniteDifferenceUpdater.scheme,
+    rcond: float = FiniteDifferenceUpdater.rcond,
+    max_step: float = FiniteDifferenceUpdater.max_step,
     additive: Mapping[str, float] | None = None,
     jacobian: str | Callable | None = "auto",
 ) -> UpdateResult:
@@ -183,6 +319,7 @@ def finite_difference_update(
     max_iterations : int
     tolerance : float
         Stop when the largest relative parameter change of an iteration is below it.
+        (The defaults of these settings are :class:`FiniteDifferenceUpdater`'s.)
     relative_step, scheme
         Finite differences, see :func:`sensitivity_matrix`.
     rcond : float

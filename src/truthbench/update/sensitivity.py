@@ -73,6 +73,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -83,7 +84,8 @@ from truthbench.errors import IdentifiabilityError
 from truthbench.identify.correlation import modal_scale_factor, pair_modes
 from truthbench.identify.modal import ModalParameters
 from truthbench.model import Modes, complex_modes, solve_modes
-from truthbench.update.finite_difference import UpdateResult
+from truthbench.settings import setting
+from truthbench.update.finite_difference import IterationSettings, UpdateResult
 from truthbench.update.identifiability import check_identifiable
 from truthbench.update.macroelements import (
     BuildSystem,
@@ -91,6 +93,9 @@ from truthbench.update.macroelements import (
     macroelement_matrices,
     system_matrices,
 )
+
+if TYPE_CHECKING:
+    from truthbench.update.registry import UpdateProblem
 
 _EPS = np.finfo(float).eps
 
@@ -669,6 +674,46 @@ def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
     return _State(float(b @ b), A, b, tuple(pairs), macros, M, K, counts, damping)
 
 
+@dataclass(frozen=True, kw_only=True)
+class SensitivityUpdater(IterationSettings):
+    """Sensitivity localization from measured modes (METHOD 5.3,
+    :func:`sensitivity_update`, whose defaults are these). Needs ``measured`` and
+    ``build_model`` (with damping) or ``build_mk`` of the
+    :class:`~truthbench.update.UpdateProblem`; uses ``build_model`` when both are given.
+    Updates plant parameters only."""
+
+    name: ClassVar[str] = "sensitivity"
+    needs: ClassVar[frozenset[str]] = frozenset({"modes"})
+
+    mac_min: float = setting(0.8, "Least MAC of a measured-model mode pair (on the "
+                             "measured DOFs); unpaired measured modes are dropped.",
+                             low=0, high=1)
+    c_zeta: float = setting(
+        1.0, "Weight of the damping-ratio rows (used when a damping parameter is updated; "
+        "identified damping is less accurate than frequency: lower it on noisy data).",
+        low=0)
+    c_phi: float = setting(0.1, "Weight of the mode-shape rows (0 updates from "
+                           "frequencies and damping only).", low=0)
+    c_lambda: float = setting(1.0, "Weight of the eigenvalue rows.", low=0)
+
+    def unsupported(self, kinds: Mapping[str, str]) -> dict[str, str]:
+        """Parameters it cannot update (appended dynamics, effects), with the reason."""
+        why = {"appended": "it belongs to the measurement chain, which identified modes do "
+                           "not carry (a delay does not move the poles, a gain does not "
+                           "change scaled shapes)",
+               "effect": "modal data are matched against the plant's own matrices; effect "
+                         "parameters are updated from FRFs"}
+        return {name: why[kind] for name, kind in kinds.items() if kind in why}
+
+    def update(self, problem: UpdateProblem) -> SensitivityResult:
+        """Update ``problem.names`` against the problem's identified modes."""
+        self._require(problem, " ('build_model', the model with its damping, may stand in "
+                               "for 'build_mk')")
+        build = problem.build_model if problem.build_model is not None else problem.build_mk
+        return sensitivity_update(build, problem.theta0, problem.names, problem.measured,
+                                  **self.settings())
+
+
 def sensitivity_update(
     build_mk: BuildSystem,
     theta0: Mapping[str, float],
@@ -676,17 +721,17 @@ def sensitivity_update(
     measured: MeasuredModes | Sequence[MeasuredModes],
     *,
     n_model_modes: int | None = None,
-    c_lambda: float = 1.0,
-    c_phi: float = 0.1,
-    c_zeta: float = 1.0,
+    c_lambda: float = SensitivityUpdater.c_lambda,
+    c_phi: float = SensitivityUpdater.c_phi,
+    c_zeta: float = SensitivityUpdater.c_zeta,
     zeta_floor: float = 1e-3,
-    mac_min: float = 0.6,
-    max_iterations: int = 30,
-    tolerance: float = 1e-8,
-    rcond: float = 1e-4,
+    mac_min: float = SensitivityUpdater.mac_min,
+    max_iterations: int = SensitivityUpdater.max_iterations,
+    tolerance: float = SensitivityUpdater.tolerance,
+    rcond: float = SensitivityUpdater.rcond,
     scale_shapes: bool = True,
     freq_weight: float = 1.0,
-    max_step: float = 0.5,
+    max_step: float = SensitivityUpdater.max_step,
     degenerate_rtol: float = 1e-6,
     visibility_min: float = 1e-4,
 ) -> SensitivityResult:

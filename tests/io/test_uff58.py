@@ -19,11 +19,10 @@ import numpy as np
 import pytest
 
 from truthbench.errors import DataFormatError
-from truthbench.io import (
-    DIRECTIONS,
+from truthbench.io import DIRECTION_CODES, direction_label, load_frf
+from truthbench.io._uff58 import (
     NODE_OFFSET,
     UFFData,
-    load_frf,
     read_uff58,
     write_uff58_frf,
     write_uff58_time,
@@ -278,7 +277,11 @@ def test_load_frf_dispatches_uff_and_unv(
 
 def test_conventions_are_published() -> None:
     assert NODE_OFFSET == 1
-    assert DIRECTIONS[3] == "+Z" and DIRECTIONS[-1] == "-X" and DIRECTIONS[6] == "+RZ"
+    assert direction_label(3) == "+Z" and direction_label(-1) == "-X"
+    assert direction_label(6) == "+RZ" and direction_label(0) == "scalar"
+    assert direction_label(9) == "9"  # not a UFF direction: as read
+    assert [direction_label(-c) for c in DIRECTION_CODES.values()] == [
+        "-X", "-Y", "-Z", "-RX", "-RY", "-RZ"]
 
 
 # --------------------------------------------------------------------------------------

@@ -1,9 +1,13 @@
-"""Universal File Format (UFF) dataset 58: write and read FRFs and time histories.
+"""Universal File Format (UFF) dataset 58, the private layer under the public UFF
+reader and writer (:mod:`truthbench.io.uff_frf`: :func:`~truthbench.io.read_uff`,
+:func:`~truthbench.io.write_uff`, which exchange :class:`~truthbench.measure.FRFData`).
 
-This module owns truthbench's UFF 58 ("function at nodal DOF") exchange, built on
-``pyuff``: :func:`write_uff58_frf`, :func:`write_uff58_time` and :func:`read_uff58`
-returning a frozen :class:`UFFData`. One dataset 58 holds one function of one response
-DOF and one reference DOF; a file of FRFs holds one set per (output, input) pair.
+This module holds the dataset-58 ("function at nodal DOF") plumbing, built on ``pyuff``:
+:func:`write_uff58_frf`, :func:`write_uff58_time` and :func:`read_uff58` returning a
+frozen :class:`UFFData` of raw arrays (the tests also use the writers to make files of
+other tools' layouts), and the one table of UFF direction codes,
+:data:`DIRECTION_CODES`. One dataset 58 holds one function of one response DOF and one
+reference DOF; a file of FRFs holds one set per (output, input) pair.
 
 Node and direction convention
 -----------------------------
@@ -14,7 +18,8 @@ Node and direction convention
   stations: convert with ``station + NODE_OFFSET``.
 - **Direction** (UFF record 6): ``1, 2, 3`` = +X, +Y, +Z translation; ``4, 5, 6`` =
   +X, +Y, +Z rotation; the negative code is the same axis in the minus sense
-  (``-3`` = -Z); ``0`` = scalar. See :data:`DIRECTIONS`.
+  (``-3`` = -Z); ``0`` = scalar. See :data:`DIRECTION_CODES` and
+  :func:`direction_label`.
 - **Layout**: ``H[:, i, j]`` is written as the set with response ``(resp_nodes[i],
   resp_dirs[i])`` and reference ``(ref_nodes[j], ref_dirs[j])``, for j outer and i
   inner. :func:`read_uff58` rebuilds ``H`` of shape (n_freq, n_out, n_in) from the
@@ -82,11 +87,12 @@ from truthbench.errors import DataFormatError
 from truthbench.quantities import MOTION_QUANTITIES, quantity
 
 __all__ = [
-    "DIRECTIONS",
+    "DIRECTION_CODES",
     "FRF_TYPES",
     "NODE_OFFSET",
     "TIME_QUANTITIES",
     "UFFData",
+    "direction_label",
     "read_uff58",
     "write_uff58_frf",
     "write_uff58_time",
@@ -95,14 +101,29 @@ __all__ = [
 NODE_OFFSET = 1
 """UFF node number of truthbench station ``s`` is ``s + NODE_OFFSET``."""
 
-DIRECTIONS = MappingProxyType(
-    {
-        0: "scalar",
-        1: "+X", 2: "+Y", 3: "+Z", 4: "+RX", 5: "+RY", 6: "+RZ",
-        -1: "-X", -2: "-Y", -3: "-Z", -4: "-RX", -5: "-RY", -6: "-RZ",
-    }
-)  # fmt: skip
-"""UFF direction codes (record 6, fields 7 and 10) and their meaning."""
+DIRECTION_CODES = MappingProxyType({"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6})
+"""Channel direction -> UFF direction code (record 6, fields 7 and 10): translation along
+and rotation about X, Y, Z. The negative code is the same axis in the minus sense
+(``Channel.sign = -1``); code 0 is a scalar (no direction). The one direction table of
+the UFF layers."""
+
+_DIRECTION_NAMES = {v: k for k, v in DIRECTION_CODES.items()}
+
+
+def direction_name(code: int) -> str | None:
+    """The direction (x, y, z, rx, ry, rz) of a UFF direction code, None for 0 or an
+    unknown code."""
+    return _DIRECTION_NAMES.get(abs(int(code)))
+
+
+def direction_label(code: int) -> str:
+    """A UFF direction code as text: ``"+Z"``, ``"-RX"``, ``"scalar"`` (0); an unknown
+    code as its number."""
+    code = int(code)
+    name = direction_name(code)
+    if name is None:
+        return "scalar" if code == 0 else str(code)
+    return ("-" if code < 0 else "+") + name.upper()
 
 def _axis(name: str) -> tuple[int, str, str]:
     """(UFF specific data type, axis label, SI unit label) of a quantity, from the one
@@ -260,7 +281,7 @@ def _nodes(name: str, values, n: int, what: str) -> list[int]:
 
 def _dirs(name: str, values, n: int, what: str) -> list[int]:
     dirs = _int_vector(name, values, n, what)
-    bad = [v for v in dirs if v not in DIRECTIONS]
+    bad = [v for v in dirs if v != 0 and direction_name(v) is None]
     if bad:
         raise ValueError(f"{name} must be UFF direction codes in -6..6; got {bad!r}")
     return dirs
