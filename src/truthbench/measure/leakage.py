@@ -3,7 +3,7 @@
 With a stationary random input of flat spectrum, the expected cross- and auto-spectra of
 windowed segments are the true ones convolved with the window's power spectrum
 ``|W(f)|^2`` (Bendat and Piersol, Random Data, ch. 8 and 9), so to first order in
-1/averages
+1/averages::
 
     E[H1](f_k) = sum_m K_m H(f_k + m delta) U(f_k + m delta)
                  / sum_m K_m U(f_k + m delta),        K_m = |W(m delta)|^2,

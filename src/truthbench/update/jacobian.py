@@ -462,9 +462,8 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
 def frf_jacobian(predictor, theta: Mapping[str, float], names: Sequence[str], *,
                  additive: Mapping[str, float] | None = None,
                  cache: MacroelementCache | None = None) -> np.ndarray:
-    """``dG/dp`` of :meth:`FRFPredictor.predict_vector <truthbench.update.FRFPredictor.
-    predict_vector>` for relative changes of ``names`` (per unit scale of the additive
-    ones), the same matrix :func:`~truthbench.update.finite_difference.sensitivity_matrix`
+    """``dG/dp`` of :meth:`~truthbench.update.FRFPredictor.predict_vector` for relative
+    changes of ``names`` (per unit scale of the additive ones), the same matrix :func:`~truthbench.update.finite_difference.sensitivity_matrix`
     approximates.
 
     Parameters
