@@ -880,7 +880,7 @@ def _check_references(spec: CampaignSpec) -> None:
     plan = CampaignPlan.compile(spec)
     check_memory(plan)  # first: the lines of a record that cannot fit are not listed
     _check_update_lines(plan)
-    # m r > p (METHOD 5.1): SISO pairs over all tests against updated parameters
+    # m r > p (Eq. 10.21): SISO pairs over all tests against updated parameters
     if any("frf" in UPDATERS[m].needs for m in spec.update_methods()):
         pairs = plan.n_pairs
         p = len(spec.update.parameters)

@@ -13,9 +13,9 @@ window. For a periodic input (a record of ``period_samples`` samples repeated, w
 campaigns use) the input has lines only at multiples of ``delta = fs / period``, and the
 sum is exact on that grid; otherwise ``delta`` is a fine grid standing for the
 continuum. Near a lightly damped resonance this smoothing lowers and widens the peak: the
-leakage bias that makes damping read from short segments too high (METHOD 4, Figure
-10.3). A model compared with such data should be compared through the same window:
-:func:`expected_h1` does that, given a function that evaluates the model FRF.
+leakage bias that makes damping read from short segments too high (Figure 10.3,
+:ref:`method-smoothing`). A model compared with such data should be compared through the same
+window: :func:`expected_h1` does that, given a function that evaluates the model FRF.
 
 Pure functions on arrays; nothing here estimates from data.
 """

@@ -157,7 +157,7 @@ class _Base:
 
 @dataclass(frozen=True)
 class FiniteDifferenceUpdater(_Base):
-    """Finite-difference FRF updating (METHOD 5.1,
+    """Finite-difference FRF updating (Eq. 10.12-10.21,
     :func:`~truthbench.update.finite_difference.finite_difference_update`); the
     settings are that function's. Needs ``predict_frf``, ``frf_data`` and ``n_pairs``;
     uses ``frf_weights`` and ``additive``. Updates any parameter the predictor can vary."""
@@ -197,7 +197,7 @@ class FiniteDifferenceUpdater(_Base):
 
 @dataclass(frozen=True)
 class SensitivityUpdater(_Base):
-    """Sensitivity localization from measured modes (METHOD 5.3,
+    """Sensitivity localization from measured modes (Eq. 10.31-10.44,
     :func:`~truthbench.update.sensitivity.sensitivity_update`); the settings are that
     function's. Needs ``measured`` and ``build_model`` (with damping) or ``build_mk``;
     uses ``build_model`` when both are given. Updates plant parameters only."""
