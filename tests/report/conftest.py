@@ -10,11 +10,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture(scope="session")
-def report_result():
-    from truthbench.campaign.runner import run_campaign
-    from truthbench.campaign.spec import parse_campaign
-
+def small_quickstart() -> dict:
+    """The quickstart with short records (as tests/campaign/conftest.py): 8 elements,
+    three accelerometers, 4 s of 4 averages, the second shaker at the far end."""
     d = tomllib.loads((ROOT / "campaigns" / "quickstart.toml").read_text())
     d["plant"]["n_elements"] = 8
     d["sensors"] = [s for s in d["sensors"] if s["station"] != "quarter"]
@@ -22,6 +20,15 @@ def report_result():
         t.update(record_s=4.0, averages=4, oversample=2)
         if t["actuators"][0]["station"] == "quarter":
             t["actuators"] = [{"station": "end_b", "direction": "z"}]
+    return d
+
+
+@pytest.fixture(scope="session")
+def report_result():
+    from truthbench.campaign.runner import run_campaign
+    from truthbench.campaign.spec import parse_campaign
+
+    d = small_quickstart()
     d["tests"] += [{**d["tests"][0], "name": "third", "level_rms": 4.0},
                    {**d["tests"][0], "name": "fourth | bar", "level_rms": 3.0}]
     d["update"]["method"] = ["finite_difference", "sensitivity"]
@@ -42,15 +49,7 @@ def report_dir(report_result, tmp_path_factory):
 
 @pytest.fixture
 def small_dict():
-    """The quickstart with short records (as tests/campaign/conftest.py)."""
-    d = tomllib.loads((ROOT / "campaigns" / "quickstart.toml").read_text())
-    d["plant"]["n_elements"] = 8
-    d["sensors"] = [s for s in d["sensors"] if s["station"] != "quarter"]
-    for t in d["tests"]:
-        t.update(record_s=4.0, averages=4, oversample=2)
-        if t["actuators"][0]["station"] == "quarter":
-            t["actuators"] = [{"station": "end_b", "direction": "z"}]
-    return d
+    return small_quickstart()
 
 
 CHROMIUM = Path("/usr/bin/chromium")

@@ -11,25 +11,14 @@ from truthbench.diagnose import diagnose
 from truthbench.effects import effect_from_inject
 from truthbench.report.diagnosis import write_diagnosis
 
-from .conftest import assert_renders_with_figures
+from .conftest import assert_renders_with_figures, small_quickstart
 
 
 @pytest.fixture(scope="module")
 def diagnosis_page(tmp_path_factory):
     """diagnosis.html of the small quickstart (two tests, three accelerometers) with
     50 g added at three quarters of the tube, two candidate effects."""
-    import tomllib
-
-    from .conftest import ROOT
-
-    d = tomllib.loads((ROOT / "campaigns" / "quickstart.toml").read_text())
-    d["plant"]["n_elements"] = 8
-    d["sensors"] = [s for s in d["sensors"] if s["station"] != "quarter"]
-    for t in d["tests"]:
-        t.update(record_s=4.0, averages=4, oversample=2)
-        if t["actuators"][0]["station"] == "quarter":
-            t["actuators"] = [{"station": "end_b", "direction": "z"}]
-    spec = parse_campaign(d)
+    spec = parse_campaign(small_quickstart())
     mass = [effect_from_inject("added_mass:station=three_quarter,mass_kg=0.05")]
     data = [simulate_one(spec, 0, j, None, mass).frf for j in range(len(spec.tests))]
     diag = diagnose(data, spec.make_plant(), spec.nominal_parameters(),
