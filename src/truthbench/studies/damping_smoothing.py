@@ -72,7 +72,7 @@ DEFAULT_POINTS_PER_WINDOW = tuple(int(round(v)) for v in np.logspace(2.5, 4.5, 9
 METHODS = ("amplification", "half_power")
 """Damping readings, in the order of the ``method`` axis of the estimates."""
 
-#: The chapter's Figure 10.3 as read off the figure (points per window, error %).
+#: The chapter's Figure 10.3, read off the plot (points per window, error %).
 CHAPTER_POINTS = ((1_000, 100.0), (10_000, 10.0))
 
 
