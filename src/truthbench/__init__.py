@@ -22,7 +22,7 @@ The objects a user starts from (imported on first use, so ``truthbench --help`` 
 ``diagnose``           the effects a model lacks, from measured FRFs -> ``Diagnosis``
 =====================  ===================================================================
 
-The package is organised in rooms, lowest first (README, "How it works"): ``fe``,
+The package is organised in rooms, lowest first (docs/internals/architecture.md): ``fe``,
 ``model``, ``measure``, ``simulate``; ``plants``, ``io``, ``identify``; ``effects``,
 ``uncertainty``, ``placement``; ``update``; ``studies``; ``campaign``; ``report``;
 ``cli``. A room imports only rooms below it.
