@@ -22,10 +22,10 @@ The objects a user starts from (imported on first use, so ``truthbench --help`` 
 ``diagnose``           the effects a model lacks, from measured FRFs -> ``Diagnosis``
 =====================  ===================================================================
 
-The package is organised in rooms, lowest first (README, "How it works"): ``settings``,
-``presentation``; ``fe``, ``model``, ``measure``, ``simulate``; ``plants``, ``io``,
-``identify``; ``effects``, ``uncertainty``, ``placement``; ``update``; ``studies``;
-``campaign``; ``report``; ``cli``. A room imports only rooms below it.
+The package is organised in rooms, lowest first (docs/internals/architecture.md):
+``settings``, ``presentation``; ``fe``, ``model``, ``measure``, ``simulate``; ``plants``,
+``io``, ``identify``; ``effects``, ``uncertainty``, ``placement``; ``update``;
+``studies``; ``campaign``; ``report``; ``cli``. A room imports only rooms below it.
 """
 
 from __future__ import annotations

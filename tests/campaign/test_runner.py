@@ -200,7 +200,7 @@ def test_appended_parameters_are_refused_for_sensitivity(quickstart_dict):
 def test_sensitivity_updates_the_hub_damper_from_identified_damping():
     """Hub beam, two noise-free tests, truth damper +40 %: sensitivity localization with
     the identified damping ratios recovers it. Bar 2 %: identified damping carries the
-    Bartlett smoothing bias of 4-average FRFs (METHOD 4; measured 0.6 % here)."""
+    Bartlett smoothing bias of 4-average FRFs (Figure 10.3; measured 0.6 % here)."""
     import tomllib
 
     from .conftest import ROOT

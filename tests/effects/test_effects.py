@@ -382,7 +382,7 @@ def _hub_frf(hub_base, effects, level, seed=11):
 
 
 def test_coulomb_friction_effect_shrinks_as_the_level_grows(hub_base):
-    """METHOD 1: Coulomb friction is a constant force, so its effect on the FRF shrinks
+    """Table 10.1: Coulomb friction is a constant force, so its effect on the FRF shrinks
     as the excitation grows. Once friction is a small perturbation its equivalent viscous
     damping, 4 F_c / (pi omega X), falls as 1 / amplitude: the FRF error at the first
     mode should fall about 10 times per 10 times the level (measured 0.99, 0.56,

@@ -1,4 +1,4 @@
-"""Assembled members against the exact Euler-Bernoulli and rod solutions (METHOD 8)."""
+"""Assembled members against the exact Euler-Bernoulli and rod solutions."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""The tube element against Table 10.2 (METHOD section 2) and basic mechanics."""
+"""The tube element against Table 10.2 (the chapter's Section 10.1.1) and basic mechanics."""
 
 import numpy as np
 import pytest

@@ -1,5 +1,5 @@
 """Cross-sections against oracles nobody here wrote: tabulated torsion constants, the
-exact free-free Euler-Bernoulli roots (METHOD 8) in both bending planes, the exact rod
+exact free-free Euler-Bernoulli roots in both bending planes, the exact rod
 formula and the discrete dispersion of linear elements in torsion, and the Timoshenko
 frequency equation of a simply supported beam.
 
@@ -7,7 +7,7 @@ Tolerance rule of the eigenvalue tests (``_check_bracket``): a conforming elemen
 consistent mass is a Rayleigh-Ritz method, so its frequencies are upper bounds that fall
 under nested refinement (exact <= f_2n <= f_n). With an error ``C h^p`` the error of
 ``f_2n`` is ``(f_n - f_2n) / (2^p - 1)`` to leading order; we allow twice that for the
-higher-order terms. ``p = 4`` for Hermite Euler-Bernoulli elements (METHOD 8), ``p = 2``
+higher-order terms. ``p = 4`` for Hermite Euler-Bernoulli elements, ``p = 2``
 for the Timoshenko element (its observed rate: errors fall 4x per halving here, as the
 shear parameter 12 E I / (kappa G A h^2) grows with refinement). Both sides get a
 round-off allowance ``n_dof eps lambda_max / lambda`` (backward-stable symmetric

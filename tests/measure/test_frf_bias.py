@@ -1,6 +1,6 @@
 """Peak bias of H1 at a resonance: second order with Hann, first order with rectangular.
 
-METHOD.md section 8 (Bendat & Piersol, Random Data, ch. 8): at a resonance of half-power
+Bendat & Piersol (Random Data, ch. 8): at a resonance of half-power
 bandwidth ``B_r`` and line spacing ``df``, a smooth window (Hann) gives a peak bias of
 order ``(df / B_r)**2``, so halving ``df / B_r`` cuts it about 4x; a rectangular window
 with random input gives a bias of first order in ``df / B_r`` (halving cuts it 2x),

@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[2]
 STEEL = {"E_pa": 200e9, "rho_kg_m3": 7850.0, "nu": 0.29}  # the "steel" preset
 R, T, L, K_SPRING, X_SPRINGS = 0.0127, 0.0015, 1.2, 2000.0, (0.1, 1.1)
 FREE_FREE = np.array([4.73004074486, 7.85320462410, 10.9956078380, 14.1371654913,
-                      17.2787596574, 20.4203522456])  # METHOD 8
+                      17.2787596574, 20.4203522456])  # cos cosh = 1
 
 CAMPAIGN = """
 [campaign]
@@ -168,7 +168,7 @@ def test_steel_tube_vertical_modes_match_the_exact_beam_on_springs(steel_models)
 
 
 def test_steel_tube_lateral_modes_are_the_free_free_roots(steel_models):
-    """No lateral springs: y and rz are rigid, the bending modes are METHOD 8's."""
+    """No lateral springs: y and rz are rigid, the bending modes are the free-free roots."""
     EI, rhoA = _constants()
     exact = FREE_FREE[:5] ** 2 * np.sqrt(EI / (rhoA * L**4))
     f24, _ = _plane(steel_models[24], ("y", "rz"))

@@ -1,4 +1,4 @@
-"""The two plants: hub-beam frequency equation (METHOD 8), strain output, stations."""
+"""The two plants: the exact hub-beam frequency equation, strain output, stations."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,7 @@ from truthbench.errors import ModelError
 from truthbench.fe.beam import TubeSection
 from truthbench.plants import Actuator, Sensor, make_plant
 
-HUB_ROOTS = {  # METHOD section 8, lambda = beta L
+HUB_ROOTS = {  # the hub-beam frequency equation, lambda = beta L
     0.1: [2.638924696, 4.79377085, 7.875652943, 11.00310416],
     1 / 3: [2.213498732, 4.72340047, 7.860971497],
     1.0: [2.010003322, 4.703794262, 7.856823551, 10.99629338],

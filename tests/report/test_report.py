@@ -2,19 +2,13 @@
 text, figures with units, the same report from memory and from the file, and
 report.html as a browser renders it."""
 
-import html
-import json
 import re
 import struct
-import subprocess
-from pathlib import Path
-
-import pytest
 
 from truthbench.campaign.results import CampaignResult
 from truthbench.report.accuracy import figure_name, write_report
 
-CHROMIUM = Path("/usr/bin/chromium")
+from .conftest import assert_renders_with_figures
 
 
 def _tables(md: str):
@@ -119,40 +113,18 @@ def test_single_test_file_report(small_dict, tmp_path):
     assert "## Parameter errors" not in md
 
 
-@pytest.mark.skipif(not CHROMIUM.exists(),
-                    reason="/usr/bin/chromium is not installed: report.html is not rendered")
-def test_report_html_renders_in_chromium(report_dir, tmp_path):
+def test_report_html_renders_in_chromium(report_dir, browser):
     """Every figure loads, and nothing is wider than the window (wide tables scroll
     in their own box, at most twice the window)."""
-    probe = """<script>
-window.addEventListener('load', () => {
-  const vw = document.documentElement.clientWidth;
-  const imgs = [...document.images];
-  const right = e => e.getBoundingClientRect().right;
-  const r = {images: imgs.length, viewport: vw,
-    broken: imgs.filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.alt),
-    page: document.documentElement.scrollWidth,
-    wide: [...document.querySelectorAll('img, p, h1, h2, h3, ul, div.table')]
-      .filter(e => right(e) > vw + 1).map(e => e.tagName),
-    tables: Math.max(...[...document.querySelectorAll('table')].map(right)) / vw};
-  const pre = document.createElement('pre');
-  pre.id = 'probe';
-  pre.textContent = JSON.stringify(r);
-  document.body.appendChild(pre);
-});
-</script>"""
-    page = (report_dir / "report.html").read_text()
-    probe_page = tmp_path / "probe.html"
-    probe_page.write_text(page.replace("</body>", probe + "</body>"))
-    run = subprocess.run(
-        [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu",
-         f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,900",
-         "--virtual-time-budget=10000", "--dump-dom", probe_page.as_uri()],
-        capture_output=True, text=True, timeout=120)
-    found = re.search(r'<pre id="probe">(.*?)</pre>', run.stdout, re.S)
-    assert found, run.stderr[-2000:]
-    r = json.loads(html.unescape(found.group(1)))
+    r = browser.probe(report_dir / "report.html")
     n_md = len(re.findall(r"!\[", (report_dir / "report.md").read_text()))
     assert r["images"] == n_md and r["broken"] == []
     assert r["page"] <= r["viewport"] and r["wide"] == []
     assert r["tables"] <= 2.0
+
+
+def test_report_html_screenshot_shows_every_figure(report_dir, browser):
+    """The screenshot of the whole report is not blank, and every figure's box on it
+    holds a drawing (not an empty or broken image)."""
+    n_md = len(re.findall(r"!\[", (report_dir / "report.md").read_text()))
+    assert_renders_with_figures(browser, report_dir / "report.html", n_md)

@@ -1,4 +1,4 @@
-"""Coulomb friction against the exact single-DOF free decay (METHOD section 1)."""
+"""Coulomb friction against the exact single-DOF free decay (Table 10.1)."""
 
 import numpy as np
 

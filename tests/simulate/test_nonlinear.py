@@ -6,7 +6,7 @@
   and breakaway and at every sample (the input is linear there), for a forced oscillator,
   a three-mass chain and a free-free chain (rigid-body mode while slipping). Measured
   agreement ~1e-11 of the RMS response; asserted 1e-8 (the brief's target is 1e-4).
-* Level dependence (Table 10.1 / METHOD section 1): friction is a constant force, so its
+* Level dependence (Table 10.1): friction is a constant force, so its
   effect on the FRF shrinks as the excitation grows; hardening cubic stiffness moves the
   resonance up with level; inside a dead band the spring is absent.
 * Smooth elements: second-order convergence in ``dt`` against solve_ivp (rtol 1e-12),

@@ -52,7 +52,7 @@ def test_error_falls_with_points_per_window(study):
 def test_peaks_overestimate_damping_and_keep_the_frequency(study):
     err = study.relative_error_pct[0, 0, 0]  # bartlett, amplification, N = 1000
     assert np.all(err > 0)  # a smoothed peak is lower, so it reads more damping
-    # frequencies stay about right (METHOD section 4): within the half-power bandwidth
+    # frequencies stay about right (the chapter's Section 10.1.4): within the half-power bandwidth
     # B_r = 0.2 Hz (measured: at most 0.15 Hz at N = 1000, 0.03 Hz above)
     f_err = np.abs(study.freq_estimates_hz - study.natural_freq_hz)
     assert np.all(f_err < study.half_power_bandwidth_hz)

@@ -1,6 +1,6 @@
 """Figure 10.2 study: FE free-free beam against the exact Euler-Bernoulli solution.
 
-Oracles written elsewhere: the free-free roots of METHOD section 8 (cos cosh = 1), the
+Oracles written elsewhere: the free-free roots (cos cosh = 1), the
 mass normalisation and orthogonality of the exact shapes (checked by quadrature), the
 Rayleigh-Ritz bound (FE frequencies are upper bounds that fall on nested meshes) and the
 h^4 convergence of the Hermite element.
@@ -44,7 +44,7 @@ def test_exact_shapes_have_unit_mean_square_and_are_orthogonal():
 
 
 def test_exact_frequencies_of_the_nominal_tube(study):
-    # METHOD section 9: EI about 601 N m^2, rho A about 0.332 kg/m, L = 1.8 m
+    # the nominal hub-beam tube: EI about 601 N m^2, rho A about 0.332 kg/m, L = 1.8 m
     p = study.parameters
     EI = p["E_pa"] * np.pi * p["r_m"] ** 3 * p["t_m"]
     rhoA = p["rho_kg_m3"] * 2 * np.pi * p["r_m"] * p["t_m"]

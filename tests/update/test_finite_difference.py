@@ -1,4 +1,4 @@
-"""Finite-difference FRF updating (METHOD 5.1)."""
+"""Finite-difference FRF updating (Eq. 10.12-10.21)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Macroelements (METHOD 5.3) against Table 10.2 of the chapter and the linearity identity."""
+"""Macroelements (Eq. 10.40) against Table 10.2 of the chapter and the linearity identity."""
 
 import warnings
 

@@ -1,4 +1,4 @@
-"""Sensitivity localization (METHOD 5.3): eigen-sensitivities against finite differences
+"""Sensitivity localization (Eq. 10.31-10.44): eigen-sensitivities against finite differences
 of the exact eigensolution, and the iterated update against a known truth."""
 
 import warnings

@@ -1,4 +1,4 @@
-"""Sensitivity localization of damping parameters (METHOD 5.3 with measured damping).
+"""Sensitivity localization of damping parameters (Eq. 10.31-10.44 with measured damping).
 
 Oracles: the exact poles of ``det(s^2 M + s C + K) = 0`` refined by Newton's method from
 the undamped frequency (independent of the modal first-order form the code uses),
@@ -24,7 +24,7 @@ from truthbench.update import (
 from truthbench.update.sensitivity import MeasuredModes, sensitivity_update
 
 # --------------------------------------------------------------------------------------
-# the hub-beam (METHOD section 9): hub dashpot, in-plane (y) modes, hub angle + 4 y
+# the hub-beam (the chapter's Section 10.5): hub dashpot, in-plane (y) modes, hub angle + 4 y
 # --------------------------------------------------------------------------------------
 HUB = make_plant("hub_beam", n_elements=8)
 HUB_NOM = HUB.resolve()

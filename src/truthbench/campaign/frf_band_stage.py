@@ -1,5 +1,6 @@
-"""The FRF-domain uncertainty stage of a campaign (METHOD 6: "the mean of the data gives
-the model and the variance bounds the transfer functions").
+"""The FRF-domain uncertainty stage of a campaign (the chapter's Section 10.3: the mean
+of the data gives the model and their variance bounds the transfer functions;
+:ref:`method-uncertainty-model`).
 
 Per trial, the tests that share inputs, outputs and frequency lines form groups; the
 largest group (at least three tests, the first such group on a tie) over the lines

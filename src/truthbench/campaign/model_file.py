@@ -4,7 +4,7 @@ A model file is a TOML file with the campaign file's ``[plant]`` table (the arti
 type, mesh, section, material, suspension, what supports it (``supports``), stations;
 parameters in SI with units in the keys), optionally ``[update] parameters`` (what the
 user trusts the model to get wrong: fitted first, as the baseline) and ``[diagnose]``
-(candidates, band, point map, ...: see the README). It needs no ``[[tests]]`` or
+(candidates, band, point map, ...: docs/reference/model_file.md). It needs no ``[[tests]]`` or
 ``[[sensors]]``: the data say where they were measured. A campaign file is a model file
 too; its test tables are then not used.
 """

@@ -1,4 +1,4 @@
-"""Sensor placement for a campaign (METHOD 5.3, Eq. 10.45).
+"""Sensor placement for a campaign (Section 10.3, Eq. 10.45; :ref:`method-placement`).
 
 Candidates are the translations, in the directions the campaign's sensors use, at every
 node of the model. Two rankings:

@@ -1,6 +1,6 @@
 """Campaign files: parsing and validation into a frozen :class:`CampaignSpec`.
 
-A campaign is a TOML file (reference: README, "Campaign file reference"). It is checked
+A campaign is a TOML file (reference: docs/reference/campaign_file.md). It is checked
 once, here: the TOML syntax, then every key and type (pydantic models with
 ``extra="forbid"``), then the cross-references (stations the plant has, parameters it
 accepts, update parameters against the data). Every problem is reported as a
@@ -47,7 +47,7 @@ elements (3006 DOFs) one sparse eigen solve of the lowest 20-60 modes takes unde
 second here (0.35-0.9 s), while from about 700 elements the shift-invert solver slows
 down sharply (800 elements: 4 s for 8 modes; 1000: 20 s; 2000 did not finish in a
 minute). Discretization error is far below any test's at a few tens of elements
-(README, Figure 10.2)."""
+(Figure 10.2; docs/validation.md)."""
 
 LEVEL_RMS_RANGE = (1e-6, 1e6)
 """Smallest and largest ``[[tests]] level_rms``, N (N m for a moment): a micronewton to a
@@ -952,7 +952,7 @@ def _check_references(spec: CampaignSpec) -> None:
     plan = CampaignPlan.compile(spec)
     check_memory(plan)  # first: the lines of a record that cannot fit are not listed
     _check_update_lines(plan)
-    # m r > p (METHOD 5.1): SISO pairs over all tests against updated parameters
+    # m r > p (Eq. 10.21): SISO pairs over all tests against updated parameters
     if any("frf" in UPDATERS[m].needs for m in spec.update_methods()):
         pairs = plan.n_pairs
         p = len(spec.update.parameters)

@@ -1,4 +1,5 @@
-"""The uncertainty stage of a campaign (METHOD 6, Eq. 10.46-10.50, Figure 10.6).
+"""The uncertainty stage of a campaign (Section 10.3, Eq. 10.46-10.50, Figure 10.6;
+:ref:`method-uncertainty-model`).
 
 For every test the identified modes are paired (MAC at the test's sensors, frequency
 distance) with the initial model's modes inside the analysis band; model modes paired

@@ -4,8 +4,8 @@ Checks, at the nominal model: the campaign file itself (the same validation as e
 command); m r > p for the finite-difference method (SISO transfer functions against
 parameters); that the update band lies inside Nyquist and overlaps every test's excited
 band; that the update parameters are identifiable from the model FRFs at the lines the
-update will use (the column-scaled sensitivity matrix at the nominal model, METHOD
-section 2: what stops a trial with an ``IdentifiabilityError``); and the memory, disk and
+update will use (the column-scaled sensitivity matrix at the nominal model, Table
+10.2: what stops a trial with an ``IdentifiabilityError``); and the memory, disk and
 time a run needs (the estimates ``truthbench run`` refuses by). Exit code 0 when all
 pass, 1 when a check fails, 2 for a campaign file that does not load.
 """

@@ -5,9 +5,9 @@ input, real and imaginary parts apart,
 
     chi2(theta) = sum ((Re, Im)(H_data - H_model(theta)) / sigma)^2,
 
-minimised by the project's finite-difference FRF updater (the chapter's Eq.
-10.12-10.21, Levenberg-Marquardt damped Gauss-Newton, identifiability checked at every
-iteration). The model
+minimised by the project's finite-difference FRF updater (Eq. 10.12-10.21,
+Levenberg-Marquardt damped Gauss-Newton, identifiability checked at every iteration).
+The model
 FRF is what the data's estimator would have measured: the exact FRF at ``s = sigma_w +
 j omega`` for exponentially windowed data, plus, for averaged estimates whose window
 and segments are known, the leakage offset ``E[H1] - H`` computed at a reference fit

@@ -1,7 +1,8 @@
 """Appended dynamics (Table 10.1): actuator and sensor dynamics, time delay.
 
 They change what is recorded, not the structure: the data then contain them and the
-structural model does not (METHOD 5.2 item 1).
+structural model does not (the chapter's Section 10.2.2, issue 1;
+:ref:`method-estimation-issues`).
 
 Each side has a first-order and a second-order low-pass:
 

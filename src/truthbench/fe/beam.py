@@ -1,4 +1,5 @@
-"""The 12-DOF 3D beam element and its cross-sections (METHOD section 2, Eq. 10.1-10.4).
+"""The 12-DOF 3D beam element and its cross-sections (Section 10.1.1,
+Eq. 10.1-10.4; :ref:`method-beam-element`).
 
 DOF order at each end: ``u1`` axial (local x), ``u2``, ``u3`` transverse (local y, z),
 ``u4`` torsion about x, ``u5``, ``u6`` rotations about y and z. The element vector is
@@ -545,7 +546,7 @@ def transformation_matrix(R: np.ndarray) -> np.ndarray:
 
 
 def sag_rotation(theta_rad: float) -> np.ndarray:
-    """The per-node sag rotation of METHOD section 3 (Eq. 10.5-10.6).
+    """The per-node sag rotation of Eq. 10.5-10.6 (:ref:`method-sag`).
 
     ``T = [[c, 0, -s], [0, 1, 0], [s, 0, c]]`` with ``c = cos(theta)``, ``s = sin(theta)``;
     applied to translations and rotations of both nodes it tilts the element by the sag

@@ -1,4 +1,5 @@
-"""Correlation of mode shapes and pairing of test modes to model modes (METHOD 5.2 item 5).
+"""Correlation of mode shapes and pairing of test modes to model modes (the chapter's
+Section 10.2.2, issue 5, Eq. 10.28-10.30; :ref:`method-correlation`).
 
 * MAC (Eq. 10.28), Hermitian form for complex shapes:
   ``MAC = |a^H b|^2 / ((a^H a)(b^H b))``; for real shapes this is

@@ -10,7 +10,8 @@ displacement (receptance, ``p = 0``), velocity (mobility, ``p = 1``), accelerati
 * **Half-power damping**: ``zeta = (f_2 - f_1) / (2 f_n)`` with ``f_1, f_2`` the
   frequencies where ``|H_v|`` falls to ``peak / sqrt(2)``, found by linear interpolation
   between lines. For one mode in mobility this is exact: ``w_2 - w_1 = 2 zeta w_n``.
-* **Peak amplification** (the chapter's Eq. 10.7-10.8 reading, METHOD section 4):
+* **Peak amplification** (the chapter's reading of Eq. 10.7-10.8, Figure 10.3;
+  :ref:`method-smoothing`):
   ``zeta = 1 / (2 Q)``, ``Q = peak / static-equivalent``. For ``q/u = c b / (s^2 + 2 zeta
   w s + w^2)`` the static value is ``H(0) = c b / w^2`` and ``Q = 1 / (2 zeta sqrt(1 -
   zeta^2))``, so ``1 / (2Q)`` is ``zeta`` to first order. What is used as the

@@ -1,9 +1,10 @@
 """Model/test compatibility: Guyan reduction and least-squares shape expansion.
 
-METHOD 5.2 item 3. Partition the model DOFs into active ``A`` (measured, actuated) and
-dependent ``D`` ones, ``q_D = T_DA q_A`` (Eq. 10.22-10.24). Guyan (static) condensation
-(Eq. 10.25) takes ``T_DA = -K_DD^-1 K_DA``; the full transformation
-``q = T q_A`` (``T`` has the identity on the active rows) gives
+The chapter's Section 10.2.2, issue 3 (:ref:`method-reduction`). Partition the model DOFs
+into active ``A`` (measured, actuated) and dependent ``D`` ones, ``q_D = T_DA q_A``
+(Eq. 10.22-10.24). Guyan (static) condensation (Eq. 10.25) takes
+``T_DA = -K_DD^-1 K_DA``; the full transformation ``q = T q_A`` (``T`` has the identity on
+the active rows) gives
 ``M_r = T^T M T`` and ``K_r = T^T K T`` (the latter equals the Schur complement
 ``K_AA - K_AD K_DD^-1 K_DA``).
 

@@ -1,6 +1,7 @@
 """Mass normalisation of identified shapes through a collocated driving point.
 
-METHOD 5.2 item 4: every actuator needs a collocated sensor for correctly scaled shapes.
+The chapter's Section 10.2.2, issue 4 (:ref:`method-estimation-issues`): every actuator needs
+a collocated sensor for correctly scaled shapes.
 For a displacement FRF of a (proportionally or modally damped) structure with
 mass-normalised shapes ``phi``,
 

@@ -31,13 +31,13 @@ FRF types and units
 The FRF type is stored in records 9 and 10 (ordinate numerator and denominator
 specific data types), with axis labels and SI unit labels:
 
-============  ====================  =========  ============
-frf_type      numerator (code)      denom.     units
-============  ====================  =========  ============
-accelerance   acceleration (12)     force (13) m/s^2 / N
-mobility      velocity (11)         force (13) m/s / N
-receptance    displacement (8)      force (13) m / N
-============  ====================  =========  ============
+============  ====================  ==========  ============
+frf_type      numerator (code)      denom.      units
+============  ====================  ==========  ============
+accelerance   acceleration (12)     force (13)  m/s^2 / N
+mobility      velocity (11)         force (13)  m/s / N
+receptance    displacement (8)      force (13)  m / N
+============  ====================  ==========  ============
 
 The abscissa is frequency (code 18, ``Hz``) for FRFs and time (code 17, ``s``) for time
 histories (function type 1). Time-history channels are ``acceleration``, ``velocity``,

@@ -3,7 +3,7 @@
 With a stationary random input of flat spectrum, the expected cross- and auto-spectra of
 windowed segments are the true ones convolved with the window's power spectrum
 ``|W(f)|^2`` (Bendat and Piersol, Random Data, ch. 8 and 9), so to first order in
-1/averages
+1/averages::
 
     E[H1](f_k) = sum_m K_m H(f_k + m delta) U(f_k + m delta)
                  / sum_m K_m U(f_k + m delta),        K_m = |W(m delta)|^2,
@@ -13,9 +13,9 @@ window. For a periodic input (a record of ``period_samples`` samples repeated, w
 campaigns use) the input has lines only at multiples of ``delta = fs / period``, and the
 sum is exact on that grid; otherwise ``delta`` is a fine grid standing for the
 continuum. Near a lightly damped resonance this smoothing lowers and widens the peak: the
-leakage bias that makes damping read from short segments too high (METHOD 4, Figure
-10.3). A model compared with such data should be compared through the same window:
-:func:`expected_h1` does that, given a function that evaluates the model FRF.
+leakage bias that makes damping read from short segments too high (Figure 10.3,
+:ref:`method-smoothing`). A model compared with such data should be compared through the same
+window: :func:`expected_h1` does that, given a function that evaluates the model FRF.
 
 Pure functions on arrays; nothing here estimates from data.
 """

@@ -135,11 +135,11 @@ def get_window(
     name : str
         Case-insensitive window name:
 
-        ``"rectangular"`` (alias ``"boxcar"``), ``"bartlett"``, ``"hann"``,
-        ``"hamming"``, ``"flattop"``
-            The periodic (DFT-even) windows of :func:`scipy.signal.get_window` with
-            ``fftbins=True``, the form used for averaged spectral estimation; the result
-            equals ``scipy.signal.get_window(name, n)`` exactly.
+        ``"rectangular"``, ``"bartlett"``, ``"hann"``, ``"hamming"``, ``"flattop"``
+            (``"boxcar"`` is an alias of ``"rectangular"``.) The periodic (DFT-even)
+            windows of :func:`scipy.signal.get_window` with ``fftbins=True``, the form
+            used for averaged spectral estimation; the result equals
+            ``scipy.signal.get_window(name, n)`` exactly.
         ``"force"``
             Impact-test window for the force (input) channel: 1 over the first
             `force_width` samples, 0 after.  It removes the noise recorded after the

@@ -1,4 +1,5 @@
-"""placement room: ranking candidate sensor locations (METHOD 5.3, Eq. 10.45).
+"""placement room: ranking candidate sensor locations (Section 10.3,
+Eq. 10.45; :ref:`method-placement`).
 
 Owns: ranking by the mode-shape sensitivity to the expected error sources, with a greedy
 D-optimal selection that avoids redundant DOFs, and a finite-difference fallback for the

@@ -1,4 +1,4 @@
-"""Ranking candidate sensor DOFs (METHOD 5.3, Eq. 10.45).
+"""Ranking candidate sensor DOFs (Section 10.3, Eq. 10.45; :ref:`method-placement`).
 
 Two criteria the chapter names:
 

@@ -9,7 +9,8 @@ The cross-section (``section``: ``"tube"``, ``"rectangular_bar"``, ``"circular_b
 :data:`~truthbench.fe.beam.SECTIONS`) decides which dimension parameters the plant has
 (:data:`SECTION_PARAMETERS`: ``r_m``, ``t_m``; ``b_m``, ``h_m``; ``d_m``); the
 ``material`` preset (:data:`MATERIALS`) gives the defaults of ``E_pa``, ``rho_kg_m3`` and
-``nu``. The tube's dimensions default to the nominal tube of METHOD section 9; a bar's
+``nu``. The tube's dimensions default to the nominal tube of the hub-beam experiment
+(:ref:`method-hub-beam`); a bar's
 dimensions have no default and must be given.
 
 Stations are named points along the beam, given as a fraction of the element count in
@@ -65,7 +66,7 @@ SUPPORTS = ("springs", "foam", "none")
 #:
 #: ``aluminium``: 6061-T6, typical values of the Aluminum Association (ASM Handbook
 #: Vol. 2; MatWeb "Aluminum 6061-T6"): E = 68.9 GPa, rho = 2700 kg/m^3, nu = 0.33 -- the
-#: chapter's nominal tube (METHOD section 9) and the default.
+#: nominal tube of the hub-beam experiment (:ref:`method-hub-beam`) and the default.
 #:
 #: ``steel``: plain carbon steel, E = 200 GPa, rho = 7850 kg/m^3, nu = 0.29 (Gere and
 #: Goodno, *Mechanics of Materials*, Appendix H: E = 190-210 GPa, nu = 0.27-0.30,
@@ -132,7 +133,7 @@ class ParameterInfo:
 
 
 #: The dimension parameters of every section (units in the names), per element group.
-#: The tube's defaults are the nominal tube of METHOD section 9 (25.4 mm outside
+#: The tube's defaults are the nominal tube of the hub-beam experiment (25.4 mm outside
 #: diameter, 1.65 mm wall); the bars' dimensions are required.
 SECTION_PARAMETERS: dict[str, dict[str, ParameterInfo]] = {
     "tube": {
@@ -706,7 +707,7 @@ class StructuralAdditions:
     element_stiffness_scale : tuple of (element, factor)
         Element stiffness multiplied by ``factor`` (a joint's stiffness loss: 1 - loss).
     sag_angles_rad : ndarray, shape (n_elements,), optional
-        Element sag angles (METHOD section 3).
+        Element sag angles (Eq. 10.5-10.6).
     points : tuple of (kind, ((dof, weight), ...), value)
         Grounded mass, spring or dashpot on the displacement ``u^T q`` of one DOF at a
         point between nodes (``u`` the weights of :meth:`Plant.point_weights`): adds

@@ -10,7 +10,7 @@ not proportional. Sensors: hub angle and rate (``hub``/``rz`` displacement or
 velocity), beam accelerations at stations, root bending strain (``root``/``y`` strain).
 
 With ``eta = J_h / (rho A L^3)`` the in-plane frequencies follow the hub-beam frequency
-equation of METHOD section 8.
+equation (:ref:`method-oracles`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ class HubBeam(Plant):
 
     kind: ClassVar[str] = "hub_beam"
     own_parameters: ClassVar[dict[str, ParameterInfo]] = {
-        # eta = 1 for the nominal tube: J_h = rho A L^3 (METHOD section 9)
+        # eta = 1 for the nominal tube: J_h = rho A L^3 (the chapter's Section 10.5)
         "hub_inertia_kg_m2": ParameterInfo(1.9385, "kg m^2", "hub inertia about its axis"),
         "hub_damping_n_m_s_rad": ParameterInfo(
             5.0, "N m s/rad", "concentrated rotational dashpot at the hub", positive=False),

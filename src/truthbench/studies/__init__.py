@@ -2,10 +2,10 @@
 
 * :mod:`~truthbench.studies.discretization` -- Figure 10.2: frequency and mode-shape
   errors of a free-free tube beam against the number of finite elements, with the
-  exact Euler-Bernoulli solution as the reference (METHOD section 2).
+  exact Euler-Bernoulli solution as the reference (:ref:`method-discretization`).
 * :mod:`~truthbench.studies.damping_smoothing` -- Figure 10.3: the damping ratio read
   from the peak of a Bartlett-smoothed, 10-average FRF of a noisy single-DOF system,
-  against the number of points per window (METHOD section 4).
+  against the number of points per window (:ref:`method-smoothing`).
 
 Each study is a pure function returning a frozen result with ``.to_pandas()`` and
 ``.plot()`` (a figure, :mod:`truthbench.presentation`); the command line

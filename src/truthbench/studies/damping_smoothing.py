@@ -1,4 +1,5 @@
-"""Damping read from smoothed FRF peaks (the chapter's Figure 10.3, METHOD section 4).
+"""Damping read from smoothed FRF peaks (the chapter's Figure 10.3, Eq. 10.7-10.8;
+:ref:`method-smoothing`).
 
 A single-DOF system ``q/u = c b / (s^2 + 2 zeta w s + w^2)`` (here ``b = 1``,
 ``c = w^2``: unit static gain) is driven by sampled white Gaussian noise of unit
@@ -72,7 +73,7 @@ DEFAULT_POINTS_PER_WINDOW = tuple(int(round(v)) for v in np.logspace(2.5, 4.5, 9
 METHODS = ("amplification", "half_power")
 """Damping readings, in the order of the ``method`` axis of the estimates."""
 
-#: The chapter's Figure 10.3 as quoted in METHOD section 4 (points per window, error %).
+#: The chapter's Figure 10.3, read off the plot (points per window, error %).
 CHAPTER_POINTS = ((1_000, 100.0), (10_000, 10.0))
 
 
@@ -264,7 +265,7 @@ class DampingSmoothingStudy(Presentable):
             axes[0].errorbar(n, mean, yerr=std, fmt=style, ms=4, capsize=3,
                              label=f"{first}, {method.replace('_', '-')}")
         cx, cy = zip(*CHAPTER_POINTS, strict=True)
-        axes[0].plot(cx, cy, "kx", ms=9, mew=2, label="chapter (METHOD 4, read off Fig. 10.3)")
+        axes[0].plot(cx, cy, "kx", ms=9, mew=2, label="chapter (read off Fig. 10.3)")
         for window in self.windows:
             mean, std = self.error_stats(window, "amplification")
             axes[1].errorbar(n, mean, yerr=std, fmt="o-", ms=4, capsize=3,

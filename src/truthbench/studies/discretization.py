@@ -1,6 +1,6 @@
 """Discretization error of a free-free tube beam (the chapter's Figure 10.2).
 
-The nominal aluminium tube of METHOD section 9 (mean radius 11.875 mm, wall 1.65 mm,
+The nominal aluminium tube of the hub-beam experiment (mean radius 11.875 mm, wall 1.65 mm,
 E = 68.9 GPa, rho = 2700 kg/m^3, L = 1.8 m; the defaults of the free-free beam plant,
 tube section, aluminium) is meshed into 1..N equal
 Euler-Bernoulli tube elements (:func:`truthbench.fe.assembly.straight_member`,
@@ -244,7 +244,7 @@ def discretization_study(
         Flexible bending modes to study (1 = first), each >= 1.
     parameters : dict, optional
         Overrides of the tube (E_pa, nu, rho_kg_m3, r_m, t_m, L_m; SI units); default the
-        METHOD section 9 aluminium tube.
+        nominal aluminium tube of the hub-beam experiment.
 
     Returns
     -------

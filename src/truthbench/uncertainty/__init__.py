@@ -1,4 +1,5 @@
-"""uncertainty room: the uncertainty model over repeated tests (METHOD 6, Eq. 10.46-10.50).
+"""uncertainty room: the uncertainty model over repeated tests (Section 10.3,
+Eq. 10.46-10.50; :ref:`method-uncertainty-model`).
 
 Owns: the parameter uncertainty model (mean error, covariance, 3-sigma bound, mean model)
 with the chapter's confidence-factor weighting (:mod:`.model`); its frequency-domain

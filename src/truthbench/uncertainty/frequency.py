@@ -1,5 +1,6 @@
-"""The uncertainty model in the frequency domain (METHOD 6: "the mean of the data gives
-the model and the variance bounds the transfer functions").
+"""The uncertainty model in the frequency domain (the chapter's Section 10.3: the mean
+of the data gives the model and their variance bounds the transfer functions;
+:ref:`method-uncertainty-model`).
 
 From ``T`` FRF estimates ``H_j`` of the same outputs and inputs on the same frequency
 lines, at every line and input-output pair:

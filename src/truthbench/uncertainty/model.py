@@ -1,4 +1,5 @@
-"""The uncertainty model over repeated tests (METHOD 6, Eq. 10.46-10.50).
+"""The uncertainty model over repeated tests (Section 10.3, Eq. 10.46-10.50;
+:ref:`method-uncertainty-model`).
 
 From ``T`` tests, each giving a parameter vector ``theta_j`` (modal frequencies in Hz,
 damping ratios, shape entries, delays in s, ...), and the initial model's ``theta_0``::

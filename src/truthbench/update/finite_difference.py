@@ -1,4 +1,5 @@
-"""Finite-difference model updating in the frequency domain (METHOD 5.1, Eq. 10.12-10.21).
+"""Finite-difference model updating in the frequency domain (Section 10.2.1,
+Eq. 10.12-10.21; :ref:`method-finite-difference`).
 
 The data are FRFs ``G_D`` (any stacking of tests, frequency lines and SISO pairs); the
 model predicts the same array ``G_M(theta)``. With parameters written relative to their
@@ -13,7 +14,7 @@ Identifiability is checked at every iteration on the weighted ``S`` with its col
 scaled to unit norm (so that a parameter with a small but clean effect is not mistaken
 for an unidentifiable one): a zero column means a parameter the data does not see, and a
 relative singular value below ``rcond`` means a combination of parameters that does not
-change the FRFs (METHOD section 2: a change in t equals equal changes in E and rho).
+change the FRFs (Table 10.2: a change in t equals equal changes in E and rho).
 :class:`~truthbench.errors.IdentifiabilityError` names the parameters. The reported
 singular values and condition number are those of the unscaled weighted ``S``.
 """
@@ -180,7 +181,7 @@ class IterationSettings(Configurable):
 
 @dataclass(frozen=True, kw_only=True)
 class FiniteDifferenceUpdater(IterationSettings):
-    """Finite-difference FRF updating (METHOD 5.1, :func:`finite_difference_update`,
+    """Finite-difference FRF updating (Eq. 10.12-10.21, :func:`finite_difference_update`,
     whose defaults are these). Needs ``predict_frf``, ``frf_data`` and ``n_pairs`` of the
     :class:`~truthbench.update.UpdateProblem`; uses ``frf_weights`` and ``additive``.
     Updates any parameter the predictor can vary."""
@@ -296,7 +297,7 @@ def finite_difference_update(
     additive: Mapping[str, float] | None = None,
     jacobian: str | Callable | None = "auto",
 ) -> UpdateResult:
-    """Iterated finite-difference frequency-domain update (METHOD 5.1).
+    """Iterated finite-difference frequency-domain update (Eq. 10.12-10.21).
 
     Parameters
     ----------

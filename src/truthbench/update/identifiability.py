@@ -23,12 +23,12 @@ import numpy as np
 
 from truthbench.errors import IdentifiabilityError
 
-T_HINT = (" (METHOD section 2: a change in t_m looks exactly like equal changes in E_pa "
-          "and rho_kg_m3)")
+T_HINT = (" (Table 10.2: a change in t_m looks exactly like equal changes in E_pa and "
+          "rho_kg_m3)")
 
 
 def check_overdetermined(n_pairs: int, n_parameters: int, *, context: str = "update") -> None:
-    """Raise unless ``m r > p`` (METHOD 5.1): more SISO transfer functions than
+    """Raise unless ``m r > p`` (Eq. 10.21): more SISO transfer functions than
     parameters."""
     if n_pairs <= n_parameters:
         raise IdentifiabilityError(

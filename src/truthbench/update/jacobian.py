@@ -1,4 +1,5 @@
-"""Analytic FRF Jacobian of an :class:`~truthbench.update.FRFPredictor` (METHOD 5.1).
+"""Analytic FRF Jacobian of an :class:`~truthbench.update.FRFPredictor` (Eq. 10.15-10.19;
+:ref:`method-finite-difference`).
 
 The finite-difference update needs ``S = dG/dp``, the derivative of every model FRF
 entry with respect to a relative change ``p_k`` of each updated parameter
@@ -462,10 +463,9 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
 def frf_jacobian(predictor, theta: Mapping[str, float], names: Sequence[str], *,
                  additive: Mapping[str, float] | None = None,
                  cache: MacroelementCache | None = None) -> np.ndarray:
-    """``dG/dp`` of :meth:`FRFPredictor.predict_vector <truthbench.update.FRFPredictor.
-    predict_vector>` for relative changes of ``names`` (per unit scale of the additive
-    ones), the same matrix :func:`~truthbench.update.finite_difference.sensitivity_matrix`
-    approximates.
+    """``dG/dp`` of :meth:`~truthbench.update.FRFPredictor.predict_vector` for relative
+    changes of ``names`` (per unit scale of the additive ones), the same matrix
+    :func:`~truthbench.update.finite_difference.sensitivity_matrix` approximates.
 
     Parameters
     ----------

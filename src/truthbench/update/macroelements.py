@@ -1,4 +1,5 @@
-"""Macroelements: the parts of M and K that one parameter scales (METHOD 5.3, Table 10.2).
+"""Macroelements: the parts of M and K that one parameter scales (Eq. 10.40,
+Table 10.2; :ref:`method-sensitivity`).
 
 Sensitivity localization writes the model error as ``dK = sum_j alpha_j K_j`` and
 ``dM = sum_j alpha_j M_j`` (Eq. 10.35-10.36). Here every updating parameter ``theta_k``

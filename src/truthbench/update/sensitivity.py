@@ -1,4 +1,5 @@
-"""Sensitivity localization with modal parameters (METHOD 5.3, Eq. 10.31-10.44).
+"""Sensitivity localization with modal parameters (Section 10.2.2,
+Eq. 10.31-10.44; :ref:`method-sensitivity`).
 
 The model error is written in macroelements (:mod:`truthbench.update.macroelements`),
 ``dK = sum_j alpha_j K_j`` and ``dM = sum_j alpha_j M_j``, with ``alpha_j`` the relative
@@ -506,7 +507,7 @@ def _check_identifiable(names, A, rcond, macros, M, K, damping=None) -> None:
                         "rho by the same factor): no eigenvalue changes, and after "
                         "modal-scale-factor scaling no mode shape either. Fix one of these "
                         "parameters (a reference group) or supply mass-normalised measured "
-                        "shapes (a collocated driving point, METHOD 5.2 item 4) with "
+                        "shapes (a collocated driving point, Section 10.2.2 issue 4) with "
                         "scale_shapes=False")
         return ""
 
@@ -676,7 +677,7 @@ def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
 
 @dataclass(frozen=True, kw_only=True)
 class SensitivityUpdater(IterationSettings):
-    """Sensitivity localization from measured modes (METHOD 5.3,
+    """Sensitivity localization from measured modes (Eq. 10.31-10.44,
     :func:`sensitivity_update`, whose defaults are these). Needs ``measured`` and
     ``build_model`` (with damping) or ``build_mk`` of the
     :class:`~truthbench.update.UpdateProblem`; uses ``build_model`` when both are given.
@@ -735,7 +736,7 @@ def sensitivity_update(
     degenerate_rtol: float = 1e-6,
     visibility_min: float = 1e-4,
 ) -> SensitivityResult:
-    """Iterated sensitivity localization from measured modes (METHOD 5.3).
+    """Iterated sensitivity localization from measured modes (Eq. 10.31-10.44).
 
     Every iteration: solve ``K phi = lambda M phi`` (:func:`~truthbench.model.solve_modes`),
     take the macroelements at the current parameters, pair every measured mode with an
@@ -774,7 +775,7 @@ def sensitivity_update(
     (``dC != 0`` or ``dzeta_modal != 0``): a purely structural update is not pulled by a
     damping mismatch it cannot fix.
 
-    Weights (METHOD 5.3, ``W = diag(c_phi / ||phi_i||, c_lambda / ||lambda_i||)``):
+    Weights (Eq. 10.44, ``W = diag(c_phi / ||phi_i||, c_lambda / ||lambda_i||)``):
     shape rows ``c_phi w_i / ||phi_i||_2`` with the Euclidean norm of the current model
     shape over the measured DOFs only, eigenvalue rows ``c_lambda w_i / |lambda_i|`` with
     the current model eigenvalue, damping rows ``c_zeta w_i / max(|zeta_i|, zeta_floor)``
@@ -784,7 +785,7 @@ def sensitivity_update(
     a 1 % error of a damping ratio (e.g. 0.0101 for 0.01) each cost ``0.01^2``. The
     defaults trust eigenvalues most, damping ratios (relative) as much, shapes 10 times
     less; identified damping ratios are usually far less accurate than frequencies
-    (METHOD section 4: 10 % and worse), so on noisy data lower ``c_zeta`` (e.g. 0.1)
+    (Figure 10.3: 10 % and worse), so on noisy data lower ``c_zeta`` (e.g. 0.1)
     when other parameters also act on damping. The floor keeps a nearly undamped mode
     (``zeta_i`` ~ 0) from weighting its absolute damping error without bound.
     The step ``alpha = (W S)^+ W d`` is applied as
