@@ -24,14 +24,14 @@ diagnosis says the mesh is too coarse, with the figures.
 is its mass line, a roll read by sensors off the axis) that, added with a free complex
 residue in every transfer function, explains most of it (the residues are linear, so the
 scan is a few matrix products). It is a mode the model lacks when it is significant by
-the selection's criterion (with its pole's and residues' parameters counted) and is not a model mode
-moved (refitting the own pole of a mode the channels see within 10 % beside it adds
-little). A model mode near it that the channels do not see (torsion or lateral
-bending read by bending channels: the sensors' offsets and cross-axis sensitivity show
-it in the data) names it. It is reported with its frequency, damping and the channels
-that see it, and it is modelled in the comparison with a free residue in every transfer
-function (:class:`~.fit.ExtraModes`); the search repeats on what is left. No effect is
-fitted to it.
+the selection's criterion (with its pole's and residues' parameters counted), and either
+lies nearer a model mode the channels cannot see (torsion or lateral bending read by
+bending channels: the sensors' offsets and cross-axis sensitivity show it in the data)
+than any they see, which names it, or lies off the modes they see and is not one of them
+moved (refitting the own pole of the nearest, below and above, beside it adds little).
+It is reported with its frequency, damping and the channels that see it, and it is
+modelled in the comparison with a free residue in every transfer function
+(:class:`~.fit.ExtraModes`); the search repeats on what is left. No effect is fitted to it.
 """
 
 from __future__ import annotations
@@ -191,7 +191,9 @@ def unexplained_change(problem: Problem, current: Fit, other: np.ndarray) -> flo
 
 def refined_plant(plant, factor: int = 2):
     """The plant with every element split in ``factor`` and its stations kept, with the
-    stations named after nodes (``n<k>``) renamed to the same point's new node.
+    stations named after nodes (``n<k>``) renamed to the same point's new node. Supports
+    placed at the node nearest a default fraction (the free-free beam's suspension) are
+    pinned to the nodes they had: refining the mesh must not move them.
 
     Returns
     -------
@@ -208,7 +210,11 @@ def refined_plant(plant, factor: int = 2):
             stations[new] = fr
         else:
             stations[name] = fr
-    return replace(plant, n_elements=plant.n_elements * factor, stations=stations), renamed
+    changes = {"n_elements": plant.n_elements * factor, "stations": stations}
+    if hasattr(plant, "suspension_fractions") and plant.suspension_fractions is None:
+        changes["suspension_fractions"] = tuple(k / plant.n_elements
+                                                for k in plant.suspension_nodes())
+    return replace(plant, **changes), renamed
 
 
 def renamed_tests(tests: Sequence[MeasuredTest], renamed: dict) -> tuple[MeasuredTest, ...]:
@@ -349,7 +355,8 @@ def _modes_by_visibility(model):
 
 
 def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
-                  noise: float, n_independent: float, threshold: float
+                  noise: float, n_independent: float, threshold: float, *,
+                  guided: bool = True, known: Sequence[float] = ()
                   ) -> MissingMode | None:
     """The strongest mode in the data that the model cannot show at these channels, or
     None (module notes).
@@ -357,11 +364,16 @@ def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
     The baseline's residual is scanned for the one pole (:func:`scan_extra_mode`) that
     explains most of it with free residues. It is a mode the model lacks when it is
     significant (delta BIC above ``threshold`` with two parameters for the pole and two
-    per transfer function for the residues) and it is not a model mode moved: for every
-    mode the channels see within 10 % of it, refitting that mode's own pole beside it
-    gains less than half of what the new pole gains (:func:`_shift_drop`). A model mode
-    within 10 % that the channels cannot see (a block of DOFs not coupled to them:
-    torsion or lateral bending read by bending channels) is named.
+    per transfer function for the residues), and
+
+    * it is nearer (by a factor 1.5, and within 10 %) a model mode that the channels
+      cannot see (a block of DOFs not coupled to them: torsion or lateral bending read
+      by bending channels) than any mode they see: that mode, named; or
+    * it lies more than a few half-power widths from every mode the channels see (on
+      one, that mode changed: a filter, a gain), and is not a mode the channels see
+      moved there: for the nearest below and above (within a factor 2.5), refitting that
+      mode's own pole beside it gains less than half of what the new pole gains
+      (:func:`_shift_drop`).
 
     Parameters
     ----------
@@ -375,6 +387,11 @@ def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
         Independent real values (the criterion's n).
     threshold : float
         The delta BIC a finding must exceed.
+    guided : bool
+        Look first where each mode the channels cannot see would show (safe once the
+        effects the data carry are in the model: before, their residual is everywhere).
+    known : sequence of float
+        Frequencies (Hz) of the modes already found: not found again (within 3 %).
 
     Returns
     -------
@@ -388,44 +405,94 @@ def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
     # 0 Hz: a rigid-body motion the channels see but the model's channels do not (a roll
     # read by sensors off the axis), whose only trace in the band is its mass line
     grid = np.concatenate([[0.0], np.arange(lo, hi + 0.5 * df, df)])
-    found = scan_extra_mode(problem, current, grid)
-    if found is None:
-        return None
-    f_e, zeta_e, drop, per_out = found
     pairs = sum(len(t.sensors) * len(t.actuators) for t in problem.tests)
     k = 2 + 2 * pairs
     n = n_independent
-    if not current.chi2 - drop > 0:
-        return None
-    dbic = n * np.log(current.chi2 / (current.chi2 - drop)) - k * np.log(n)
-    if dbic <= threshold:
-        return None
+
+    def significant(found) -> bool:
+        return found is not None and current.chi2 - found[2] > 0 and \
+            n * np.log(current.chi2 / (current.chi2 - found[2])) - k * np.log(n) > threshold
+
     t0 = problem.tests[0]
     hw = problem.predictor(current.terms).hardware(current.theta, t0.actuators, t0.sensors,
                                                    test=t0.name)
     model = hw.model
     seen, hidden = _modes_by_visibility(model)
-    if f_e > 0 and seen.n_modes:
-        # a model mode the channels see near it may have moved there: if refitting its
-        # own pole beside the new one gains as much again, it is a shift, not a mode the
-        # model lacks
-        xi = np.diag(modal_damping_matrix(model, seen))
-        for j in np.flatnonzero(~seen.rigid & (np.abs(seen.freq_hz / f_e - 1) < 0.1)):
-            zeta_m = float(xi[j] / (2 * seen.omega_rad_s[j]))
-            alone, both = _shift_drop(problem, current, f_e, zeta_e, float(seen.freq_hz[j]),
-                                      zeta_m)
-            if both - alone > 0.5 * alone:
-                return None  # a model mode moved: the candidates' business
+    f_seen = np.where(seen.rigid, np.nan, seen.freq_hz) if seen.n_modes else np.zeros(0)
+    # first the modes the model has and its channels cannot see, each looked for where
+    # the data would show it (nearer it than any mode the channels see): a residual
+    # scan alone would take a broad pole between it and a neighbour the effects moved
+    known = np.asarray(known, float)
+
+    def new(f: float) -> bool:
+        return not np.any(np.abs(known - f) <= 0.03 * max(f, 1e-12))
+
+    picked = None
+    hid = np.flatnonzero(~hidden.rigid & (hidden.freq_hz >= lo) & (hidden.freq_hz <= hi)) \
+        if guided else np.zeros(0, int)
+    for r in hid:
+        f_h = float(hidden.freq_hz[r])
+        if not new(f_h):
+            continue
+        to_seen = np.nanmin(np.abs(grid[:, None] - f_seen[None, :]), axis=1,
+                            initial=np.inf) if f_seen.size else np.full(grid.size, np.inf)
+        window = grid[(grid > 0) & (np.abs(grid - f_h) < to_seen / 1.5)
+                      & (np.abs(grid / f_h - 1) <= 0.1)]
+        if window.size:
+            found = scan_extra_mode(problem, current, window)
+            if found is not None and (picked is None or found[2] > picked[0][2]):
+                picked = (found, r)
+    if picked is not None and significant(picked[0]):
+        (f_e, zeta_e, drop, per_out), r = picked
+        row = min(modal_table(model, hidden),
+                  key=lambda x: abs(x["freq_hz"] - hidden.freq_hz[r]))
+        return _missing(tests, t0, f_e, zeta_e, drop, per_out, noise, df,
+                        f"{row['shape']} at {row['freq_hz']:.5g} Hz")
+    found = scan_extra_mode(problem, current, grid)
+    if not significant(found) or not new(found[0]):
+        return None
+    f_e, zeta_e, drop, per_out = found
     name = None
     if f_e == 0.0:
         name = _hidden_rigid_motions(model) or None
-    elif hidden.n_modes:
-        near = np.flatnonzero(~hidden.rigid & (np.abs(hidden.freq_hz / f_e - 1) <= 0.1))
-        if near.size:
-            r = int(near[np.argmin(np.abs(hidden.freq_hz[near] - f_e))])
+    else:
+        f_hid = np.where(hidden.rigid, np.nan, hidden.freq_hz) if hidden.n_modes \
+            else np.zeros(0)
+        d_seen = np.nanmin(np.abs(f_seen / f_e - 1), initial=np.inf)
+        d_hid = np.nanmin(np.abs(f_hid / f_e - 1), initial=np.inf)
+        if d_hid <= 0.1 and d_hid < d_seen / 1.5:
+            # nearer a model mode the channels cannot see than any they see: that mode
+            r = int(np.nanargmin(np.abs(f_hid / f_e - 1)))
             row = min(modal_table(model, hidden),
                       key=lambda x: abs(x["freq_hz"] - hidden.freq_hz[r]))
             name = f"{row['shape']} at {row['freq_hz']:.5g} Hz"
+        elif seen.n_modes:
+            xi = np.diag(modal_damping_matrix(model, seen))
+            zeta_seen = xi / (2 * np.where(seen.omega_rad_s > 0, seen.omega_rad_s, 1.0))
+            j = int(np.nanargmin(np.abs(f_seen / f_e - 1)))
+            if d_seen < 6 * max(float(zeta_seen[j]), zeta_e):
+                # on a mode the channels see (within a few half-power widths), and no
+                # nearer unseen one: that mode changed (a filter, a gain, a shift), the
+                # model does not lack one
+                return None
+            # a mode the channels see below or above it (within a factor 2.5: a
+            # suspension mode under a stiffer support moves that far) may have moved
+            # there: if refitting its own pole beside the new one gains as much again,
+            # it is a shift
+            below = np.flatnonzero((f_seen <= f_e) & (f_seen > f_e / 2.5))
+            above = np.flatnonzero((f_seen > f_e) & (f_seen < f_e * 2.5))
+            nearest = [int(below[np.nanargmax(f_seen[below])])] if below.size else []
+            nearest += [int(above[np.nanargmin(f_seen[above])])] if above.size else []
+            for j in nearest:
+                alone, both = _shift_drop(problem, current, f_e, zeta_e,
+                                          float(seen.freq_hz[j]), float(zeta_seen[j]))
+                if both - alone > 0.5 * alone:
+                    return None  # a model mode moved: the candidates' business
+    return _missing(tests, t0, f_e, zeta_e, drop, per_out, noise, df, name)
+
+
+def _missing(tests, t0, f_e, zeta_e, drop, per_out, noise, df, name) -> MissingMode:
+    """The :class:`MissingMode` of a pole found: its band, the channels that see it."""
     half = max(5 * zeta_e * f_e, 3 * df)
     if f_e == 0.0:
         zeta_e = 0.0

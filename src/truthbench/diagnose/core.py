@@ -324,13 +324,20 @@ def _renamed_term(t, renamed: Mapping[str, str]):
 
 
 def _renamed_theta(theta: Mapping[str, float], terms, renamed: Mapping[str, str]) -> dict:
-    """Parameter values with the effect terms' keys renamed for the refined mesh."""
+    """Parameter values with the effect terms' keys renamed for the refined mesh.
+
+    A joint's stiffness loss belongs to its element, which the refinement halves: the
+    same rotational flexibility across the joint, ``loss h / (EI (1 - loss))``, on an
+    element of half the length is a loss ``2 loss / (1 + loss)``."""
     out = dict(theta)
     for t in terms:
         new = _renamed_term(t, renamed)
         for old_key, new_key in zip(t.keys(), new.keys(), strict=True):
             if old_key in out:
-                out[new_key] = out.pop(old_key)
+                value = out.pop(old_key)
+                if t.spec.name == "joint" and old_key.endswith(".stiffness_loss"):
+                    value = 2 * value / (1 + value)
+                out[new_key] = value
     return out
 
 
@@ -354,6 +361,7 @@ class _Diagnosis:
         self.tried: list[Tried] = []
         self.thresholds: list[float] = []
         self.extra_poles: tuple[tuple[float, float], ...] = ()
+        self._evidence: dict[str, float] = {}
 
     # ---- the problem ------------------------------------------------------------------
     def problem(self, plant, tests) -> Problem:
@@ -444,6 +452,32 @@ class _Diagnosis:
         return (adequacy.MeshCheck(tuple(counts), tuple(changes), s.mesh_tolerance, adequate,
                                    noise), problem, tests, current, accepted, signature)
 
+    def lacking(self, problem, tests, current, accepted, mesh, missing: list, *,
+                guided: bool = True):
+        """Look for modes the model lacks at these channels (:func:`.adequacy.
+        missing_modes`) in the residual of ``current`` (the model with its effects), and
+        model each one found in; ``missing`` grows. Returns (problem, current, the
+        magnitude fit of a refitted baseline or None)."""
+        s = self.settings
+        threshold = s.threshold + 2.0 * np.log(2.0)
+        signature = None
+        while s.check_modes and len(missing) < adequacy.MAX_MISSING:
+            m = adequacy.missing_modes(tests, problem, current, mesh.noise_variance,
+                                       problem.n_independent, threshold, guided=guided,
+                                       known=[x.freq_hz for x in missing])
+            if m is None:
+                break
+            missing.append(m)
+            self.extra_poles += ((m.freq_hz, m.damping_ratio),)
+            fresh = self.problem(problem.plant, tests)
+            if accepted:
+                current = fit(fresh, current.terms, start=current.theta)
+                problem = with_offsets(fresh, current)
+                current = fit(problem, current.terms, start=current.theta)
+            else:
+                problem, current, signature = self.baseline(fresh, start=current.theta)
+        return problem, current, signature
+
     # ---- the search ------------------------------------------------------------------
     def run(self):
         from truthbench.diagnose.result import Diagnosis
@@ -453,29 +487,18 @@ class _Diagnosis:
         problem, base, signature = self.baseline(self.problem(self.placed, tests))
         mesh, problem, tests, base, _, sig2 = self.check_mesh(problem, tests, base, [])
         signature = sig2 or signature
-        plant = problem.plant
         missing: list = []
-        threshold = s.threshold + 2.0 * np.log(2.0)
-        for _ in range(adequacy.MAX_MISSING if s.check_modes else 0):
-            m = adequacy.missing_modes(tests, problem, base, mesh.noise_variance,
-                                       problem.n_independent, threshold)
-            if m is None:
-                break
-            missing.append(m)
-            self.extra_poles += ((m.freq_hz, m.damping_ratio),)
-            problem, base, signature = self.baseline(self.problem(plant, tests),
-                                                     start=base.theta)
-        missing = tuple(missing)
+        problem, base, sig2 = self.lacking(problem, tests, base, [], mesh, missing,
+                                           guided=False)
+        signature = sig2 or signature
         data_modes = _identify(tests) if s.identify_modes else [None] * len(tests)
         baseline, before_problem = base, problem
-        self._baseline_chi2 = base.chi2
         n = problem.n_independent
         cands = catalogue(problem.plant, self.nominal, tests, names=s.candidates)
         current = base
         accepted: list[Candidate] = []
         alternatives: dict[str, tuple[Alternative, ...]] = {}
         dropped: list[Found] = []
-        fits: dict[str, Refit] = {}
         measured: tuple[Measurement, ...] = ()
         for step in range(2 * s.max_effects + 1):
             if len(accepted) >= s.max_effects:
@@ -483,10 +506,19 @@ class _Diagnosis:
             chosen, finals = self.step(problem, current, cands, accepted, step, n, signature,
                                        tests)
             if chosen is None:
-                break
+                # nothing more to add: a mode the model lacks that only the guided look
+                # finds (the effects' residual is gone) changes the comparison, and the
+                # search goes on once more
+                poles = len(self.extra_poles)
+                problem, current, _ = self.lacking(problem, tests, current, accepted, mesh,
+                                                   missing)
+                if len(self.extra_poles) == poles:
+                    break
+                before_problem, baseline, _ = self.baseline(
+                    self.problem(problem.plant, tests), start=baseline.theta)
+                continue
             accepted.append(chosen.candidate)
             current, problem = chosen.fit, chosen.problem
-            fits[chosen.candidate.label] = chosen
             runner = ambiguous(finals, chosen, s.ambiguity_margin)
             if runner is not None:
                 alternatives[chosen.candidate.label] = (self._alternative(runner),)
@@ -496,16 +528,32 @@ class _Diagnosis:
                                              tests, problem.plant)
                 except REFIT_ERRORS:
                     pass
+            newest = accepted[-1]
+            self._evidence[newest.label] = chosen.delta_bic
             accepted, current, problem, gone = self.backward(problem, current, accepted, n,
-                                                             step)
+                                                             step, self.thresholds[-1])
             dropped += gone
+            if newest not in accepted:
+                break  # the step added nothing that holds: the search has converged
             # the model with its effects must still be resolved by its mesh (an
             # attachment between nodes is represented to O(h^3) only)
             used = problem.plant.n_elements
+            before_labels = [a.label for a in accepted]
             mesh, problem, tests, current, accepted, _ = self.check_mesh(
                 problem, tests, current, accepted, mesh)
             if problem.plant.n_elements != used:
                 cands = catalogue(problem.plant, self.nominal, tests, names=s.candidates)
+                moved = dict(zip(before_labels, (a.label for a in accepted), strict=True))
+                self._evidence = {moved.get(k, k): v for k, v in self._evidence.items()}
+                alternatives = {moved.get(k, k): v for k, v in alternatives.items()}
+            # a mode the model lacks may show only once the effects found are in
+            poles = len(self.extra_poles)
+            problem, current, _ = self.lacking(problem, tests, current, accepted, mesh,
+                                               missing)
+            if len(self.extra_poles) != poles or problem.plant.n_elements != used:
+                # the baseline compared on the same terms (mesh, modes modelled in)
+                before_problem, baseline, _ = self.baseline(
+                    self.problem(problem.plant, tests), start=baseline.theta)
         found = self.evidence(problem, current, accepted, n, alternatives)
         before = residual_views(tests, _parts(tests, baseline.model), len(baseline.names),
                                 modes=_modes(tests, before_problem, baseline, data_modes))
@@ -513,7 +561,7 @@ class _Diagnosis:
                                modes=_modes(tests, problem, current, data_modes))
         return Diagnosis(tuple(found), before, after, baseline, current, tuple(self.tried), s,
                          tests, problem.plant, dict(self.nominal), self.declared, problem.n,
-                         float(n), tuple(self.thresholds), mesh=mesh, missing=missing,
+                         float(n), tuple(self.thresholds), mesh=mesh, missing=tuple(missing),
                          dropped=tuple(dropped), measurements=measured)
 
     def step(self, problem, current, cands, accepted, step, n, signature, tests):
@@ -629,6 +677,16 @@ class _Diagnosis:
             return chosen
         strengths = value * np.logspace(-0.4, 0.4, 17)
         lo, hi = max(c.node - 1, 0) / N, min(c.node + 1, N) / N
+        # the profile adapts the other parameters to first order from where it starts:
+        # start from the chosen fit's values of them (the declared parameters moved for
+        # this attachment), without the attachment
+        own = set(chosen.fit.terms[-1].keys()) if chosen.fit.terms else set()
+        try:
+            near = evaluate(problem, current.terms, current.names,
+                            {**current.theta, **{k: v for k, v in chosen.fit.theta.items()
+                                                 if k in current.names and k not in own}})
+        except REFIT_ERRORS:
+            near = current
         best = None
         for fractions in (np.linspace(lo, hi, 17), None):
             if fractions is None:
@@ -636,12 +694,12 @@ class _Diagnosis:
                     return chosen
                 d = (hi - lo) / 16
                 fractions = np.clip(best[0] + d * np.linspace(-1, 1, 9), lo, hi)
-            prof = position_profile(problem, current, c, fractions, strengths)
+            prof = position_profile(problem, near, c, fractions, strengths)
             top = max(prof, key=lambda x: x[1], default=None)
             if top is not None and (best is None or top[1] > best[1]):
                 best = top
         fraction, drop, strength, adapt = best
-        start = adapted(current.theta, dict(zip(current.names, adapt, strict=True)))
+        start = adapted(near.theta, dict(zip(near.names, adapt, strict=True)))
 
         def quick_at(fr):
             name = f"x{fr:.6f}"
@@ -679,15 +737,20 @@ class _Diagnosis:
             return chosen
         return full if full.physical and full.delta_bic > chosen.delta_bic else chosen
 
-    def backward(self, problem, current, accepted, n, step):
-        """Drop the earlier effects that are no longer significant (each refitted out of
-        the model in turn; the least needed goes first, then the rest are tested again).
-        Returns (accepted, current, problem, the dropped effects as Found)."""
-        s = self.settings
+    def backward(self, problem, current, accepted, n, step, threshold):
+        """Drop the effects that are not significant in the model with the others (each
+        refitted out of the model in turn; the least needed goes first, then the rest are
+        tested again). The newest is tested too: a fit that an earlier effect's refit
+        explains as well (a local minimum of a multimodal cost) did not add anything.
+        An effect stays when it still passes the criterion it entered by (the step's
+        ``threshold``, look-elsewhere term included). Returns (accepted, current,
+        problem, the dropped effects as Found); the evidence of those kept is recorded
+        for :meth:`evidence`.
+        """
         gone = []
         while len(accepted) > 1:
             worst = None
-            for a in accepted[:-1]:
+            for a in accepted:
                 rest = [x for x in accepted if x is not a]
                 try:
                     pc = with_offsets(problem, current)
@@ -695,7 +758,8 @@ class _Diagnosis:
                 except REFIT_ERRORS:
                     continue
                 dbic = delta_bic(n, without.chi2, current.chi2, len(a.fitted))
-                if dbic < s.threshold and (worst is None or dbic < worst[0]):
+                self._evidence[a.label] = dbic
+                if dbic < threshold and (worst is None or dbic < worst[0]):
                     worst = (dbic, a, without, pc)
             if worst is None:
                 break
@@ -716,15 +780,6 @@ class _Diagnosis:
         out = []
         plant = problem.plant
         for a in accepted:
-            if len(accepted) == 1:
-                chi2_without = self._baseline_chi2
-            else:
-                rest = [x for x in accepted if x is not a]
-                try:
-                    chi2_without = fit(problem, terms_of(rest, current.theta),
-                                       start=current.theta, quick=True).chi2
-                except REFIT_ERRORS:
-                    chi2_without = float("nan")
             own = fitted_own(a, current.theta)
             std = {p.name: current.std.get(f"{a.label}.{p.name}", float("nan"))
                    for p in a.fitted}
@@ -732,7 +787,7 @@ class _Diagnosis:
             x_m = None if station is None else float(
                 plant.station_coordinates_m(station, self.nominal)[0])
             out.append(Found(a.effect, dict(a.options), a.effect_values(own), own, std,
-                             delta_bic(n, chi2_without, current.chi2, len(a.fitted)),
+                             float(self._evidence.get(a.label, float("nan"))),
                              a.node, a.label, x_m, alternatives.get(a.label, ())))
         return out
 

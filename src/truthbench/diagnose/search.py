@@ -49,6 +49,10 @@ PHASE_EFFECTS = ("time_delay", "actuator_dynamics", "actuator_resonance", "senso
 """Effects whose phase falls as ``-omega tau`` at low frequency: started from the data's
 matched delay."""
 
+GLOBAL_STRUCTURE = ("boundary", "element_physics", "sag")
+"""Candidates that change the structure everywhere (and may move its sharpest modes by
+many of their widths): their line searches use the estimator's leakage at every point."""
+
 REFIT_ERRORS = (IdentifiabilityError, ModelError, ValueError, np.linalg.LinAlgError)
 
 
@@ -185,7 +189,11 @@ def line_search(problem, current, accepted, c, drop, guess, sizes):
     size = np.array([sizes[k] for k in c.keys()])
     if not np.any(step):  # clamped at a bound: try it at its natural sizes instead
         step = size
-    predict = problem.predict(terms_of(accepted, current.theta) + c.terms())
+    # a global candidate (a support, the element) may move an under-resolved mode far
+    # (a suspension mode a tenth of a line wide): its points are judged through the
+    # estimator's leakage at each, not the current model's held leakage
+    predict = problem.predict(terms_of(accepted, current.theta) + c.terms(),
+                              estimator=c.node is None and c.effect in GLOBAL_STRUCTURE)
     best = (drop, guess)
     low = np.array([-np.inf if p.minimum is None else p.minimum for p in c.fitted])
     high = np.array([np.inf if p.maximum is None else p.maximum for p in c.fitted])
@@ -285,9 +293,12 @@ def refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
               for k, v in c.scales(refs).items()}
     pc = replace(problem, scales={**problem.scales, **scales})
     theta = current.theta if declared_start is None else declared_start
+    terms = terms_of(accepted, current.theta) + c.terms(start=start)
     try:
-        cf = fit(pc, terms_of(accepted, current.theta) + c.terms(start=start), start=theta,
-                 quick=True)
+        # the estimator's leakage where the refit starts (the current model's is wrong
+        # where the candidate moves a sharp mode by more than a line)
+        pc = with_offsets(pc, terms=terms, theta={**pc.predictor(terms).theta0, **theta})
+        cf = fit(pc, terms, start=theta, quick=True)
     except REFIT_ERRORS as exc:
         tried.append(Tried(step, c.label, c.effect, c.options, drop, status=refit_error(exc)))
         return None
