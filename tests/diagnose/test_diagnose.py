@@ -250,3 +250,59 @@ def test_a_point_mass_is_not_crowded_out_by_the_many_joint_locations():
     assert found.effect == "added_mass" and found.x_m == pytest.approx(0.3)
     assert found.parameters["mass_kg"] == pytest.approx(0.05, rel=0.01)
     assert diag.after.reduced_chi2 < 2.0
+
+
+@pytest.mark.slow
+def test_friction_at_three_stated_levels_is_found_from_uff(tmp_path):
+    """UFF carries no force level: the three hub tests (0.3, 1 and 3 N m RMS) of a hub
+    beam with 0.1 N m of bearing friction, written as UFF (truthbench's writer; the
+    reader is tested against pyuff-written files in tests/io), are read with the levels
+    the model file states (``[diagnose] input_rms_n``), and the friction is found at
+    the hub with its force."""
+    from truthbench.io import load_measurements, write_uff
+
+    d = tomllib.loads((ROOT / "campaigns" / "hub_beam.toml").read_text())
+    d["truth"] = {}
+    d["sensors"] = [s for s in d["sensors"] if s.get("quantity") != "strain"]
+    d["tests"] = d["tests"][:3]
+    for t in d["tests"]:
+        t.update(record_s=32.0, averages=4, effects=[])
+    d["update"]["parameters"] = ["E_pa", "hub_inertia_kg_m2"]
+    spec = parse_campaign(d)
+    data = measured(spec, "coulomb_friction:station=hub,direction=rz,force_n=0.1")
+    levels = {frf.name: float(frf.input_rms[0]) for frf in data}
+    assert sorted(round(v, 1) for v in levels.values()) == [0.3, 1.0, 3.0]
+    path = write_uff(tmp_path / "hub.uff", data)
+    assert all(x.input_rms is None for x in load_measurements([path]))  # UFF has none
+    loaded = load_measurements([path], input_rms_n=levels)
+    diag = _diagnose(spec, loaded, max_effects=1, window="bartlett", fs_hz=512.0,
+                     averages=4)
+    (found,) = diag.found
+    assert found.effect == "coulomb_friction" and found.x_m == 0.0
+    assert found.parameters["force_n"] == pytest.approx(0.1, rel=0.1)
+
+
+@pytest.mark.slow
+def test_a_mirror_ambiguity_is_named_with_the_measurement_that_settles_it():
+    """Shaker and accelerometer both at the middle of the symmetric tube: a mass at the
+    quarter point and one at the three-quarter point give the same FRF there. The
+    verdict is "added_mass here or there", and the sensor that tells them apart sits off
+    the middle (where the two models differ most against the noise), not at it."""
+    d = tomllib.loads((ROOT / "campaigns" / "quickstart.toml").read_text())
+    d["sensors"] = [{"station": "mid", "direction": "z"}]
+    d["tests"] = [dict(d["tests"][0], actuators=[{"station": "mid", "direction": "z"}],
+                       record_s=16.0, averages=8)]
+    d["update"] = {"method": "none", "parameters": ["E_pa", "rho_kg_m3"]}
+    spec = parse_campaign(d)
+    data = measured(spec, "added_mass:station=quarter,mass_kg=0.04")
+    diag = _diagnose(spec, data, max_effects=1, candidates=("added_mass",),
+                     mesh_tolerance=1e300)
+    (found,) = diag.found
+    assert found.effect == "added_mass" and len(found.alternatives) == 1
+    alt = found.alternatives[0]
+    places = sorted([found.x_m, diag.plant.station_coordinates_m(
+        alt.options["station"], diag.nominal)[0]])
+    assert places == pytest.approx([0.45, 1.35], abs=0.05)
+    assert " or " in diag.verdict
+    sensor = next(m for m in diag.measurements if m.kind == "sensor")
+    assert abs(sensor.x_m - 0.9) > 0.1 and sensor.gain > 100

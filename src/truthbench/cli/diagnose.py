@@ -56,8 +56,8 @@ def _cmd_diagnose(args) -> int:
             print(f"   or: {a.effect} ({_where(a.options)}): {alt}; delta BIC "
                   f"{sig(a.delta_bic)}")
     if diag.found and not holds:
-        print(f"(no +- stated: the final residual is above the noise, reduced chi2 "
-              f"{sig(diag.after.reduced_chi2)})")
+        print(f"(no +- stated: the final residual is {sig(diag.noise_ratio, 3)} times the "
+              f"noise variance: model error, not noise)")
     for m in diag.measurements:
         print(f"to settle it: {m.summary()}")
     for f in diag.dropped:

@@ -27,7 +27,13 @@
    model refitted without it) and dropped when it is no longer significant: a first
    finding that a later one explains better (a joint standing in for a mass between two
    nodes) does not stay. The search repeats until nothing is added or ``max_effects``
-   are in the model. Data at the noise level find nothing.
+   are in the model. Data at the noise level find nothing: no effect is sought once the
+   residual's variance is within ``noise_margin`` (10 %) of the noise's (the accuracy
+   of the noise model itself: weights from the coherence of a few averages), and an
+   effect must explain at least ``excess_share`` (a quarter) of the residual's excess
+   over the noise. BIC assumes the model family contains the truth; where it does not
+   (a sensor off the beam's axis, a mesh's last digits), a flexible candidate can absorb
+   a sliver of a large residual with a high delta BIC, and that sliver is not a finding.
 5. **Verdict** (:mod:`.verdict`). When the runner-up of a step explains the data within
    ``ambiguity_margin`` of delta BIC, the finding is "A or B" with both fits, and the
    sensor and excitation point that would tell them apart are named.
@@ -110,6 +116,8 @@ class DiagnoseSettings:
     averages: int | None = None
     identify_modes: bool = True
     check_modes: bool = True
+    noise_margin: float = 0.1
+    excess_share: float = 0.25
     mesh_tolerance: float = adequacy.MESH_TOLERANCE
     max_refinement: int = adequacy.MAX_REFINEMENT
     max_iterations: int = 30
@@ -269,7 +277,12 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
         data's own when they state it), ``identify_modes`` (identify the data's modes
         for the paired-mode views), ``check_modes`` (look for modes the model lacks:
         :mod:`.adequacy`),
-        ``mesh_tolerance`` and ``max_refinement`` (the mesh check: :mod:`.adequacy`).
+        ``mesh_tolerance`` and ``max_refinement`` (the mesh check: :mod:`.adequacy`),
+        ``noise_margin`` (no effect is sought once the residual's variance is within
+        this fraction of the noise's: the noise model's own accuracy) and
+        ``excess_share`` (an effect must explain at least this share of the residual's
+        excess over the noise: a flexible candidate absorbing a sliver of a residual the
+        catalogue cannot explain is not a finding).
 
     Returns
     -------
@@ -406,17 +419,25 @@ class _Diagnosis:
     def mesh_change(self, problem: Problem, fit_: Fit, noise: float):
         """The change of the model's FRFs (with ``fit_``'s effects) from its mesh to the
         mesh halved that refitting cannot absorb, in noise units; and the refined plant
-        with its station renaming."""
+        with its station renaming.
+
+        A joint is left out of both meshes: it belongs to an element (a stiffness loss
+        over its length), so halving the element changes what it is, not how well it is
+        resolved; every other effect converges with the mesh (a point attachment between
+        nodes to third order)."""
         fine, renamed = adequacy.refined_plant(problem.plant)
-        terms = tuple(_renamed_term(t, renamed) for t in fit_.terms)
-        theta = _renamed_theta(fit_.theta, fit_.terms, renamed)
+        kept = tuple(t for t in fit_.terms if t.spec.name != "joint")
+        terms = tuple(_renamed_term(t, renamed) for t in kept)
+        theta = _renamed_theta(fit_.theta, kept, renamed)
         fp = replace(problem, plant=with_node_stations(fine), tests=tuple(
             replace(pt, actuators=tuple(replace(a, station=renamed.get(a.station, a.station))
                                         for a in pt.actuators),
                     sensors=tuple(replace(x, station=renamed.get(x.station, x.station))
                                   for x in pt.sensors)) for pt in problem.tests))
         other = fp.predict(terms)(theta)
-        return adequacy.unexplained_change(problem, fit_, other) / noise, fine, renamed
+        coarse = fit_ if kept == fit_.terms else replace(
+            fit_, model=np.asarray(problem.predict(kept)(fit_.theta)))
+        return adequacy.unexplained_change(problem, coarse, other) / noise, fine, renamed
 
     def check_mesh(self, problem, tests, current, accepted, check=None):
         """Refine the mesh while halving it changes the model by more than the
@@ -484,6 +505,7 @@ class _Diagnosis:
 
         s = self.settings
         tests = self.tests
+        self.noise = adequacy.noise_variance(tests)
         problem, base, signature = self.baseline(self.problem(self.placed, tests))
         mesh, problem, tests, base, _, sig2 = self.check_mesh(problem, tests, base, [])
         signature = sig2 or signature
@@ -579,6 +601,14 @@ class _Diagnosis:
         # best of M noise-only chi2 drops is about 2 ln M)
         threshold = s.threshold + 2.0 * np.log(max(len(screened), 1))
         self.thresholds.append(float(threshold))
+        # the residual's excess over the noise: nothing is sought once the model is at
+        # the noise level, within what the noise model itself can be trusted to
+        excess = current.chi2 - self.noise * (problem.n - len(current.names))
+        if excess <= s.noise_margin * self.noise * problem.n:
+            self.tried.extend(Tried(step, sc.candidate.label, sc.candidate.effect,
+                                    sc.candidate.options, sc.drop, status="at the noise level")
+                              for sc in screened)
+            return None, []
         # nothing to refit when not even the best screened drop, three times over, would
         # be significant (exact profiles and line searches are lower bounds of what a
         # refit reaches; the factor covers the first-order scores' error)
@@ -653,8 +683,16 @@ class _Diagnosis:
                 self.tried.append(Tried(step, c.label, c.effect, c.options, float("nan"),
                                         status=f"full refit: {refit_error(exc)}"))
                 continue
-            if full.delta_bic > threshold and full.physical:
+            if full.delta_bic > threshold and full.physical and \
+                    current.chi2 - full.fit.chi2 >= s.excess_share * excess:
                 finals.append(full)
+            elif full.delta_bic > threshold and full.physical:
+                c = r.candidate
+                self.tried.append(Tried(
+                    step, c.label, c.effect, c.options, float("nan"), full.delta_bic,
+                    status=f"explains {100 * (current.chi2 - full.fit.chi2) / excess:.3g} % "
+                           f"of the residual's excess over the noise, less than "
+                           f"{100 * s.excess_share:g} %"))
         if not finals:
             return None, finals
         chosen = max(finals, key=lambda r: r.delta_bic)

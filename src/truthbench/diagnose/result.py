@@ -96,12 +96,21 @@ class Diagnosis:
     and a covariance scaled by it does not describe the error of the values."""
 
     @property
-    def uncertainty_holds(self) -> bool:
-        """Whether the final residual is at the noise level, so that the standard
-        deviations of the fitted values mean what they say (a Monte Carlo test checks
-        that +-2 sigma then covers the true value about 95 % of the time)."""
+    def noise_ratio(self) -> float:
+        """The final residual's variance over the data's noise variance (1 when the
+        residual is noise): the reduced chi2 over the noise variance of the weighted
+        data (1 for weights from coherence; the roughness estimate for relative weights,
+        :func:`~truthbench.diagnose.adequacy.noise_variance`)."""
         noise = self.mesh.noise_variance if self.mesh is not None else 1.0
-        return bool(self.after.reduced_chi2 / noise < self.UNCERTAINTY_CHI2)
+        return float(self.after.reduced_chi2 / noise)
+
+    @property
+    def uncertainty_holds(self) -> bool:
+        """Whether the final residual is at the noise level (:attr:`noise_ratio` below
+        :attr:`UNCERTAINTY_CHI2`), so that the standard deviations of the fitted values
+        mean what they say (a Monte Carlo test checks that +-2 sigma then covers the
+        true value about 95 % of the time)."""
+        return bool(self.noise_ratio < self.UNCERTAINTY_CHI2)
 
     @property
     def verdict(self) -> str:
@@ -149,7 +158,7 @@ class Diagnosis:
                        "delta_bic": f.delta_bic, "node": f.node, "x_m": f.x_m,
                        "alternatives": [asdict(a) for a in f.alternatives]}
                       for f in self.found],
-            "uncertainty_holds": holds,
+            "uncertainty_holds": holds, "noise_ratio": self.noise_ratio,
             "mesh": None if self.mesh is None else {
                 "n_elements": list(self.mesh.n_elements), "change": list(self.mesh.change),
                 "tolerance": self.mesh.tolerance, "adequate": self.mesh.adequate,

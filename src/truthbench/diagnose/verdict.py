@@ -129,7 +129,9 @@ def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, st
     Returns
     -------
     tuple of Measurement
-        The best ``count`` sensors, then the best ``count`` excitation points.
+        The best ``count`` sensors, then the best ``count`` excitation points; none of a
+        kind where no point separates the two by one noise unit of chi2 (two effects on
+        every channel alike, such as a sensor-side and an actuator-side filter).
     """
     t = max(tests, key=lambda x: x.H.size)
     f = t.freq_hz
@@ -177,6 +179,8 @@ def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, st
     out = []
     for kind, sep in (("sensor", sep_out), ("excitation", sep_in)):
         for i in np.argsort(-sep)[:count]:
+            if not sep[i] > 1.0:  # not one noise unit apart: no such point separates them
+                break
             k, d = cand[int(i)]
             out.append(Measurement(kind, f"n{k}", float(xs[k]), d, float(sep[i]),
                                    float(sep[i] / base) if base > 0 else float("inf"),

@@ -76,15 +76,23 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
                      f"it: these data cannot tell the two apart")
         out.append(line)
     if diag.found:
-        out += ["", "Standard deviations (±) are stated because the final residual is at "
-                "the noise level (reduced chi2 within 2 of the noise's)." if holds else
-                "", "" if holds else "No standard deviations are stated: the final "
-                "residual is above the noise level (reduced chi2 "
-                f"{sig(diag.after.reduced_chi2)}), so it is model error, not noise, and a "
-                "covariance scaled by it would not describe the error of the values."]
-    if diag.measurements:
+        if holds:
+            out += ["", f"Standard deviations (±) are stated: the final residual is at the "
+                    f"noise level ({sig(diag.noise_ratio, 3)} times the noise variance; "
+                    f"they are stated below {sig(diag.UNCERTAINTY_CHI2)})."]
+        else:
+            out += ["", f"No standard deviations are stated: the final residual is "
+                    f"{sig(diag.noise_ratio, 3)} times the noise variance, so it is model "
+                    f"error, not noise, and a covariance scaled by it would not describe "
+                    f"the error of the values."]
+    if any(f.alternatives for f in diag.found):
         out += ["", "### The measurement that would settle it", ""]
         out += [f"- {m.summary()}" for m in diag.measurements]
+        settled = {m.between[0] for m in diag.measurements}
+        out += [f"- {f.effect} or {', '.join(a.effect for a in f.alternatives)}: no "
+                f"sensor or excitation point of this structure separates them (they act on "
+                f"every channel alike); a calibration of the measurement chain would"
+                for f in diag.found if f.alternatives and f.label not in settled]
     if diag.dropped:
         out += ["", "Dropped after a later finding explained the data better "
                 "(backward elimination): " + "; ".join(
