@@ -251,8 +251,10 @@ def test_corrupt_or_foreign_files(tmp_path, full_result):
     path = full_result.save(tmp_path / "cut.h5")
     with h5py.File(path, "a") as f:
         del f["trials/0001/update/values"]
+    cut = CampaignResult.load(path)  # trials are read when used
+    assert cut.trials[0].update is not None
     with pytest.raises(DataFormatError, match=r"cut.h5: /trials/0001: KeyError"):
-        CampaignResult.load(path)
+        cut.trials[1]
 
 
 def test_accuracy_against_truth_is_stored_and_improves(small_dict, tmp_path):

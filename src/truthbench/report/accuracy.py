@@ -63,8 +63,8 @@ def _input_unit(test) -> str:
 # ---- sections ------------------------------------------------------------------------
 def _header(result, results_path) -> list[str]:
     spec = result.spec
-    n_failed = len(result.failed)
-    n_updated = sum(1 for t in result.trials if not t.error and t.update is not None)
+    n_failed = len(result.tables.failed)
+    n_updated = len(result.tables.updated)
     done = (f"{n_updated} updated" if spec.update_methods()
             else f"{len(result.trials) - n_failed} completed")
     written = result.created_utc or datetime.now(UTC).isoformat(timespec="seconds")
@@ -138,7 +138,7 @@ def parameter_text(result) -> str:
 
 
 def _update_details(result) -> list[str]:
-    trial = next(t for t in result.trials if not t.error and t.update is not None)
+    trial = result.trial(result.tables.first["updated"])
     u = trial.update
     sv = ", ".join(fmt.sig(s, 3) for s in u.singular_values)
     text = (f"Trial {trial.trial}, `{u.method}`: {u.n_iterations} iterations, "
@@ -159,7 +159,7 @@ def _parameters_section(result) -> list[str]:
         return []
     spec = result.spec
     methods = spec.update_methods()
-    n = sum(1 for t in result.trials if not t.error and t.update is not None)
+    n = len(result.tables.updated)
     over = ("" if n == 1 else f" Values and errors are means over {n} trials (the bias); "
                               f"the RMS error is over trials.")
     lines = ["## Parameter errors before and after updating", "",
@@ -268,7 +268,7 @@ def _uncertainty_section(result, out: Path) -> list[str]:
         if cov.calibration is not None:
             name = _save(cov.plot(), out / "calibration.png")
             lines += [f"![Calibration of the bound: held-out coverage against k]({name})", ""]
-    trial = next(t for t in result.trials if not t.error and t.uncertainty is not None)
+    trial = result.trial(result.tables.first["uncertainty"])
     name = _save(result.plot("poles", trial=trial.trial), out / "poles.png")
     held = "; held-out tests filled" if np.any(trial.uncertainty.holdout) else ""
     lines += [f"Poles of trial {trial.trial}'s tests with the {k:g}-sigma bound, one panel "
@@ -278,9 +278,10 @@ def _uncertainty_section(result, out: Path) -> list[str]:
 
 
 def _frf_band_section(result, out: Path) -> list[str]:
-    trial = next((t for t in result.trials if not t.error and t.frf_band is not None), None)
-    if trial is None:
+    first = result.tables.first["frf_band"]
+    if first is None:
         return []
+    trial = result.trial(first)
     b = trial.frf_band
     lines = ["## FRF-domain uncertainty model", "",
              f"Mean FRF and {b.band.k_sigma:g}-sigma band (covariance of real and imaginary "
@@ -313,11 +314,11 @@ def _frf_error_section(result) -> list[str]:
 
 
 def _failed_section(result) -> list[str]:
-    if not result.failed:
+    failed = result.tables.failed
+    if not failed:
         return []
     return (["## Failed trials", ""]
-            + [f"- trial {t.trial}: {t.error.splitlines()[0]}" for t in result.failed]
-            + [""])
+            + [f"- trial {t}: {error.splitlines()[0]}" for t, error in failed] + [""])
 
 
 def _times_section(result) -> list[str]:
@@ -331,10 +332,11 @@ def _times_section(result) -> list[str]:
 
 
 def _frf_figures(result, out: Path) -> list[str]:
-    ok = [t for t in result.trials if not t.error] or list(result.trials)
-    if not ok or not ok[0].tests:
+    if not len(result.trials):
         return []
-    trial = ok[0]
+    trial = result.trial()  # the first that did not fail, else the first
+    if not trial.tests:
+        return []
     what = ("data against the initial and updated model"
             if trial.H_initial else "the measured FRFs")
     lines = ["## FRFs of the tests", "",

@@ -1,0 +1,120 @@
+"""Trial summaries: exact through JSON and the store, the tables of a loaded result made
+from them alone (no trial read), older files without them, and a report that reads only
+the trials its figures show."""
+
+import warnings
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+from truthbench.campaign.results import CampaignResult, StoredTrials
+from truthbench.campaign.runner import run_campaign
+from truthbench.campaign.spec import parse_campaign
+from truthbench.campaign.summary import TrialSummary, trial_summary
+from truthbench.campaign.tables import TABLES
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def result():
+    """Three trials of a small campaign with both updaters, four tests (three share an
+    input: an FRF band), one held out: every part a summary holds."""
+    import tomllib
+    from pathlib import Path
+
+    d = tomllib.loads((Path(__file__).resolve().parents[2] / "campaigns" /
+                       "quickstart.toml").read_text())
+    d["plant"]["n_elements"] = 8
+    d["sensors"] = [s for s in d["sensors"] if s["station"] != "quarter"]
+    for t in d["tests"]:
+        t.update(record_s=4.0, averages=4, oversample=2)
+        if t["actuators"][0]["station"] == "quarter":
+            t["actuators"] = [{"station": "end_b", "direction": "z"}]
+    d["tests"] += [{**d["tests"][0], "name": "third", "level_rms": 4.0},
+                   {**d["tests"][0], "name": "fourth", "level_rms": 3.0}]
+    d["update"]["method"] = ["finite_difference", "sensitivity"]
+    d["uncertainty"] = {"holdout": ["fourth"]}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the sensitivity method on noisy 4 s records
+        return run_campaign(parse_campaign(d), trials=3)
+
+
+def _same(a, b, where=""):
+    if isinstance(a, dict):
+        assert list(a) == list(b), where
+        for k in a:
+            _same(a[k], b[k], f"{where}[{k!r}]")
+    elif isinstance(a, tuple | list) and not (a and isinstance(a[0], float)):
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _same(x, y, f"{where}[{i}]")
+    elif hasattr(a, "__dataclass_fields__"):
+        for k in a.__dataclass_fields__:
+            _same(getattr(a, k), getattr(b, k), f"{where}.{k}")
+    elif a is None or isinstance(a, str | bool):
+        assert a == b, where
+    else:
+        x, y = np.asarray(a), np.asarray(b)
+        assert x.dtype.kind == y.dtype.kind and x.shape == y.shape, where
+        np.testing.assert_array_equal(x, y, err_msg=where)
+
+
+def test_a_summary_is_exact_through_json(result):
+    assert all(tr.error is None and tr.uncertainty is not None and tr.frf_band is not None
+               for tr in result.trials)
+    for tr in result.trials:
+        s = trial_summary(result.spec, tr)
+        assert [t.name for t in s.tests] == [r.name for r in tr.tests]
+        assert s.updated and set(s.updates) == {"finite_difference", "sensitivity"}
+        back = TrialSummary.from_json(s.to_json(), s.seconds)
+        _same(back, s, f"trial {tr.trial}")
+        assert "simulate" not in s.to_json()  # the timings stay out of it
+
+
+def test_a_loaded_result_tabulates_from_summaries_without_reading_a_trial(
+        result, tmp_path, monkeypatch):
+    loaded = CampaignResult.load(result.save(tmp_path / "r.h5"))
+    assert isinstance(loaded.trials, StoredTrials) and len(loaded.trials) == 3
+
+    def no_reading(self, i):
+        raise AssertionError(f"trial {i} read whole")
+
+    monkeypatch.setattr(StoredTrials, "__getitem__", no_reading)
+    for name in TABLES:
+        if name not in ("methods", "uncertainty"):
+            pd.testing.assert_frame_equal(loaded.to_pandas(name), result.to_pandas(name))
+        pd.testing.assert_frame_equal(loaded.summary(name), result.summary(name))
+    assert loaded.stage_seconds == pytest.approx(result.stage_seconds)
+    a, b = loaded.coverage(), result.coverage()
+    assert (a.holdout.n_inside, a.holdout.n_total) == (b.holdout.n_inside, b.holdout.n_total)
+    assert loaded.failed == ()
+
+
+def test_files_without_summaries_are_summarised_from_their_trials(result, tmp_path):
+    path = result.save(tmp_path / "old.h5")
+    with h5py.File(path, "a") as f:
+        for g in f["trials"].values():
+            del g["summary"]
+    old = CampaignResult.load(path)
+    for name in ("parameters", "modes", "coverage", "frf_error", "tests"):
+        pd.testing.assert_frame_equal(old.to_pandas(name), result.to_pandas(name))
+
+
+def test_the_report_reads_only_the_trials_its_figures_show(result, tmp_path, monkeypatch):
+    from truthbench.report.accuracy import write_report
+
+    loaded = CampaignResult.load(result.save(tmp_path / "r.h5"))
+    read = []
+    real = StoredTrials.__getitem__
+
+    def counting(self, i):
+        read.append(i)
+        return real(self, i)
+
+    monkeypatch.setattr(StoredTrials, "__getitem__", counting)
+    write_report(loaded, tmp_path / "report")
+    assert set(read) == {0}  # the first trial shows every figure
+    assert (tmp_path / "report" / "report.html").exists()
