@@ -20,26 +20,12 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def result():
-    """Three trials of a small campaign with both updaters, four tests (three share an
-    input: an FRF band), one held out: every part a summary holds."""
-    import tomllib
-    from pathlib import Path
+    """Three trials of the small campaign with every part a summary holds."""
+    from .conftest import full_dict
 
-    d = tomllib.loads((Path(__file__).resolve().parents[2] / "campaigns" /
-                       "quickstart.toml").read_text())
-    d["plant"]["n_elements"] = 8
-    d["sensors"] = [s for s in d["sensors"] if s["station"] != "quarter"]
-    for t in d["tests"]:
-        t.update(record_s=4.0, averages=4, oversample=2)
-        if t["actuators"][0]["station"] == "quarter":
-            t["actuators"] = [{"station": "end_b", "direction": "z"}]
-    d["tests"] += [{**d["tests"][0], "name": "third", "level_rms": 4.0},
-                   {**d["tests"][0], "name": "fourth", "level_rms": 3.0}]
-    d["update"]["method"] = ["finite_difference", "sensitivity"]
-    d["uncertainty"] = {"holdout": ["fourth"]}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the sensitivity method on noisy 4 s records
-        return run_campaign(parse_campaign(d), trials=3)
+        return run_campaign(parse_campaign(full_dict()), trials=3)
 
 
 def _same(a, b, where=""):
