@@ -325,14 +325,43 @@ def frf(model: StructuralModel, freq_hz, modes: Modes, *, decay_rad_s: float = 0
         peak = np.where(damped, num / np.where(damped, modes.omega_rad_s * xi, 1.0), np.inf)
         top = np.max(peak[damped & free], initial=0.0)
         free &= ~(damped & (peak < mode_tolerance * top))
-    den = modes.omega_rad_s[None, free] ** 2 + s[:, None] ** 2 + s[:, None] * np.diag(Xi)[free]
-    H = np.einsum("om,fm,mi->foi", Cm[:, free], 1.0 / den, Bm[free], optimize=True)
+    w2, xi = modes.omega_rad_s[free] ** 2, np.diag(Xi)[free]
+
+    def classical(lines):
+        return 1.0 / (w2[None, :] + s[lines, None] ** 2 + s[lines, None] * xi)
+
+    H = _modal_sum(Cm[:, free], classical, Bm[free], s.size)
     if coupled.any():
         # modes coupled through non-proportional damping: complex modes of that subset
         H = H + _complex_mode_frf(modes.omega_rad_s[coupled], Xi[np.ix_(coupled, coupled)],
                                   Bm[coupled], Cm[:, coupled], s)
     p = _output_powers(model.quantities)
     return H * (s[:, None, None] ** p[None, :, None])
+
+
+_LINES_PER_BLOCK = 512
+"""Frequency lines per block of a modal sum (:func:`_modal_sum`): a block's weights,
+lines x modes complex numbers, stay in the processor's cache while they are formed and
+used (twice as fast as whole arrays for 25 000 lines of 126 modes here)."""
+
+
+def _modal_sum(left, weights, right, n_lines: int) -> np.ndarray:
+    """``H[f, o, i] = sum_k left[o, k] weights(f)[f, k] right[k, i]``, formed in blocks
+    of :data:`_LINES_PER_BLOCK` lines: ``weights(lines)`` gives the (block, K) weights of
+    a slice of lines, and each block is one matrix product with the residues
+    ``left[o, k] right[k, i]``.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_lines, n_out, n_in)
+    """
+    residues = (left.T[:, :, None] * right[:, None, :]).reshape(left.shape[1], -1)
+    residues = residues.astype(complex, copy=False)
+    H = np.empty((n_lines, residues.shape[1]), complex)
+    for a in range(0, n_lines, _LINES_PER_BLOCK):
+        lines = slice(a, min(a + _LINES_PER_BLOCK, n_lines))
+        np.matmul(weights(lines), residues, out=H[lines])
+    return H.reshape(n_lines, left.shape[0], right.shape[1])
 
 
 def _complex_mode_frf(omega, Xi, Bm, Cm, s):
@@ -347,8 +376,7 @@ def _complex_mode_frf(omega, Xi, Bm, Cm, s):
     if rcond > 1e-10:
         L = Cm @ V[:m]  # displacement rows of the state
         R = sla.lu_solve(lu, Bs, check_finite=False)
-        return np.einsum("ok,fk,ki->foi", L, 1.0 / (s[:, None] - lam[None, :]), R,
-                         optimize=True)
+        return _modal_sum(L, lambda lines: 1.0 / (s[lines, None] - lam[None, :]), R, s.size)
     # defective (e.g. undamped rigid modes coupled to a damper): solve per frequency
     Z = (omega**2)[None, :, None] * np.eye(m)[None] + s[:, None, None] * Xi[None] \
         + (s**2)[:, None, None] * np.eye(m)[None]
