@@ -104,3 +104,36 @@ def test_the_report_reads_only_the_trials_its_figures_show(result, tmp_path, mon
     write_report(loaded, tmp_path / "report")
     assert set(read) == {0}  # the first trial shows every figure
     assert (tmp_path / "report" / "report.html").exists()
+
+
+def test_frfs_of_trial_0_only_keep_every_table(result, tmp_path):
+    """``[output] frfs = "first_trial"``: trial 1 is stored with its summary and modes but
+    no FRF line, model FRF or band; the tables equal those of the whole run, and the
+    report says where its figures come from."""
+    from .conftest import full_dict
+
+    d = full_dict()
+    d["output"] = {"frfs": "first_trial"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lean = run_campaign(parse_campaign(d), trials=2)
+    whole, cut = lean.trials
+    assert whole.tests[0].freq_hz.size and whole.frf_band is not None
+    assert [r.freq_hz.size for r in cut.tests] == [0] * 4 and cut.frf_band is None
+    assert cut.tests[0].modes is not None and cut.update is not None
+    loaded = CampaignResult.load(lean.save(tmp_path / "lean.h5"))
+    full = CampaignResult(result.spec, result.seed, result.version, result.nominal,
+                          result.trials[:2])
+    for name in ("parameters", "modes", "coverage", "frf_error", "tests", "frf_band"):
+        pd.testing.assert_frame_equal(loaded.to_pandas(name), full.to_pandas(name))
+    lean_bytes = _stored_bytes(tmp_path / "lean.h5", "0001")
+    assert lean_bytes < _stored_bytes(full.save(tmp_path / "full.h5"), "0001") / 20
+
+
+def _stored_bytes(path, key) -> int:
+    """Bytes of the datasets of trial ``key`` of a results file."""
+    total = []
+    with h5py.File(path, "r") as f:
+        f[f"trials/{key}"].visititems(lambda _, o: total.append(
+            o.id.get_storage_size()) if isinstance(o, h5py.Dataset) else None)
+    return sum(total)

@@ -154,8 +154,9 @@ def estimate_resources(plan, trials: int | None = None) -> ResourceEstimate:
         R = t.test.oversample if t.time_path else 1
         worker = max(worker, simulation_bytes(t, truth_dofs(plan, t))[0] / 1e6)
         frf = 16 * lines_all * n_out * n_in
-        store += (frf * 3 + 8 * lines_all * n_out * n_in + 8 * lines_all) / 1e6 + 0.05
-        store0 += 8 * n * (n_in + n_out) / 1e6  # the time histories
+        frfs = (frf * 3 + 8 * lines_all * n_out * n_in + 8 * lines_all) / 1e6
+        store += 0.05 + (frfs if spec.output.frfs == "all" else 0.0)
+        store0 += frfs if spec.output.frfs != "all" else 0.0  # trial 0 keeps its FRFs
         # the modal sum over the excited lines, and time stepping on the time path
         ops += excited * m * n_out * n_in * (1 + 4 * R * (R > 1)) + R * n * m * (R > 1)
         if plan.methods:
@@ -183,12 +184,14 @@ def estimate_resources(plan, trials: int | None = None) -> ResourceEstimate:
             + 2 * len(plan.tests) + 2)
     stage = 25 * len(plan.tests) * 2 * in_band[1] if len(plan.tests) > 1 else 0
     summary_mb = (rows * _ROW_BYTES + stage + _SUMMARY_TRIAL_BYTES) / 1e6
-    first = store + store0 if keep in ("first_trial", "all") else store
-    per = store + store0 if keep == "all" else store
+    histories = sum(8 * t.samples * (len(t.actuators) + len(t.sensors)) / 1e6
+                    for t in plan.tests)
+    first = store + store0 + (histories if keep in ("first_trial", "all") else 0.0)
+    per = store + (histories if keep == "all" else 0.0)
     total = first + per * (n_trials - 1)
     lines.append(f"model: {m} DOFs (every mode is used)")
     lines.append(f"{n_trials} trials x {per:.2f} MB stored per trial"
-                 + (f" (the first {first:.2f} MB with its time histories)"
+                 + (f" (trial 0 {first:.2f} MB: it keeps its time histories or FRFs)"
                     if first != per else ""))
     report = _REPORT_BASE_MB + n_trials * summary_mb + 3 * first
     lines.append(f"report: {n_trials} trial summaries x {1000 * summary_mb:.1f} kB, and "

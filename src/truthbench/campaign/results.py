@@ -473,12 +473,13 @@ class CampaignResult:
 
         Parameters
         ----------
-        kind : {"frf", "poles", "frf_band", "calibration"}
+        kind : {"frf", "poles", "frf_band", "convergence", "calibration"}
             ``"frf"``: one test's data against the initial and updated model, magnitude
             and phase (and coherence) per output, with units; ``"poles"``: the poles of
             the tests with the bound (Figure 10.6), one panel per mode; ``"frf_band"``:
-            the FRF-domain band with the models; ``"calibration"``: held-out coverage
-            against k.
+            the FRF-domain band with the models; ``"convergence"``: coverage and error
+            statistics against the number of trials, with confidence bands;
+            ``"calibration"``: held-out coverage against k.
         trial : int, optional
             Trial number; default the first that did not fail.
         test : str, optional
@@ -493,7 +494,7 @@ class CampaignResult:
         from truthbench.campaign import figures
 
         funcs = {"frf": figures.plot_frf, "poles": figures.plot_poles,
-                 "frf_band": figures.plot_frf_band}
+                 "frf_band": figures.plot_frf_band, "convergence": figures.plot_convergence}
         if kind == "calibration":
             cov = self.coverage()
             if cov is None:
@@ -502,6 +503,8 @@ class CampaignResult:
         if kind not in funcs:
             raise ValueError(f"unknown figure {kind!r}; expected one of "
                              f"{', '.join([*funcs, 'calibration'])}")
+        if kind == "convergence":
+            return figures.plot_convergence(self, **kwargs)
         tr = self.trial(trial)
         if kind == "frf":
             return figures.plot_frf(self, tr, test, **kwargs)

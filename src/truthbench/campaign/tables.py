@@ -84,6 +84,8 @@ class Tables:
         The first trial that did not fail (``"ok"``), that updated (``"updated"``), with
         an uncertainty stage (``"uncertainty"``), with an FRF band (``"frf_band"``); None
         where there is none.
+    band : dict or None
+        The FRF band of the first trial with one (its summary's ``frf_band``).
     """
 
     def __init__(self, spec):
@@ -95,6 +97,7 @@ class Tables:
         self.methods: dict = {}  # every updater name seen, in order
         self.stages: list = []
         self.first = dict.fromkeys(("ok", "updated", "uncertainty", "frf_band"))
+        self.band: dict | None = None
         self._rows = {name: [] for name in ("parameters", "modes", "frf_error", "frf_band",
                                              "tests", "stage_times")}
         self._units: dict = {}
@@ -124,6 +127,8 @@ class Tables:
                 self.first["uncertainty"] = t
         if s.frf_band is not None:
             b = s.frf_band
+            if self.first["frf_band"] is None:
+                self.band = b
             self._rows["frf_band"].append((t, ", ".join(b["tests"]), len(b["tests"]),
                                            b["k_sigma"], b["n_lines"],
                                            b["inside"].get("initial", np.nan),
