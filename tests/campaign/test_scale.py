@@ -200,6 +200,15 @@ class Cluster:
         with Client(self.address, timeout="10s") as client:
             return len(client.scheduler_info()["workers"])
 
+    def busy(self, name: str) -> bool:
+        """Whether the worker called ``name`` is running a task."""
+        from distributed import Client
+
+        with Client(self.address, timeout="10s") as client:
+            workers = client.scheduler_info()["workers"]
+            address = [a for a, w in workers.items() if w.get("name") == name]
+            return bool(address and client.processing(address)[address[0]])
+
     def close(self) -> None:
         """End the workers, then the scheduler (a worker whose scheduler is gone would
         wait for it to come back)."""
@@ -236,21 +245,25 @@ def test_a_tcp_cluster_gives_the_local_store_bit_for_bit(cluster, small_file, re
 
 
 @pytest.mark.slow
-def test_a_worker_killed_mid_run_loses_and_repeats_no_trial(cluster, small_file,
-                                                            reference, tmp_path):
-    """SIGKILL one of the two workers once the run has stored a trial: the scheduler
-    runs the lost worker's trials on the other, the run completes, every trial is
-    stored once, and the results equal the local run's."""
+def test_a_worker_killed_mid_run_loses_and_repeats_no_trial(cluster, small_spec, small_file,
+                                                            tmp_path):
+    """SIGKILL one of the two workers once the run has stored a batch (four trials per
+    task): the scheduler runs the lost worker's batch on the other, the run completes,
+    every trial is stored once, and the results equal a local run's."""
+    n = 6 * 4  # six batches: the killed worker is in the middle of one
+    reference = _reference(small_spec, tmp_path / "local", n)
     out = tmp_path / "dask"
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     proc = subprocess.Popen([sys.executable, "-m", "truthbench", "run", str(small_file),
-                             "--out", str(out), "--trials", str(N_TRIALS), "--scheduler",
+                             "--out", str(out), "--trials", str(n), "--scheduler",
                              cluster.address, "-v"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     store = TrialStore(out)
     try:
         _wait_for(lambda: len(store.done()) >= 1 or proc.poll() is not None, 120,
                   "the first stored trial")
+        _wait_for(lambda: cluster.busy("w0") or proc.poll() is not None, 60,
+                  "the first worker to run a batch")
         at_kill = len(store.done())
         os.killpg(cluster.workers[0].pid, signal.SIGKILL)
         _, err = proc.communicate(timeout=180)
@@ -258,11 +271,11 @@ def test_a_worker_killed_mid_run_loses_and_repeats_no_trial(cluster, small_file,
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 0, err[-3000:]
-    assert at_kill < N_TRIALS, "the run ended before the worker was killed"
+    assert at_kill < n, "the run ended before the worker was killed"
     assert cluster.workers[0].wait(10) == -signal.SIGKILL
     stored = [int(line.split()[2]) for line in err.splitlines()
               if line.startswith("INFO: trial ") and "stored" in line]
-    assert sorted(stored) == list(range(N_TRIALS))  # none lost, none twice
+    assert sorted(stored) == list(range(n))  # none lost, none twice
     _assert_same(reference, out / "results.h5")
     _wait_for(lambda: cluster.n_workers() == 1, 30, "the scheduler to drop the dead worker")
 
