@@ -250,7 +250,9 @@ class DaskEngine(_Engine):
     def run(self, job, plan, trials, seed):
         from distributed import as_completed
 
-        plan_f = self._client.scatter(plan, broadcast=True)
+        # a key of its own (not the content's): a later run of the same plan on this
+        # engine must not share a key the end of this one releases
+        plan_f = self._client.scatter(plan, broadcast=True, hash=False)
         todo = iter(trials)
         queue = as_completed()
         batches = {}
