@@ -3,7 +3,8 @@ hub-beam trial, and the memory of ``truthbench run`` and ``truthbench report`` a
 the trial count; this tree against a base tree measured in the same run.
 
 ``python bench/bench_campaign.py [--base /tmp/base] [--trials 40] [--rounds 2]
-[--hub-rounds 3] [--memory 100 1000 10000] [--hub-memory 1000] [--base-memory-max 1000]``
+[--hub-rounds 3] [--memory 100 1000 10000] [--hub-memory 100 1000]
+[--base-memory-max 1000] [--base-hub-memory-max 100]``
 
 Every measurement runs in a fresh subprocess with ``PYTHONPATH=<tree>/src``, the two
 trees interleaved round by round (the machine is shared: medians of rounds, paired). It
@@ -24,7 +25,8 @@ prints, for each tree:
   stores, a few real trials copied under every trial number (the copies are stored
   trials like any other: their files, summaries and groups are renamed to their
   number). A base tree whose report loads every trial is measured up to
-  ``--base-memory-max`` trials (10 000 quickstart trials would need about 20 GB);
+  ``--base-memory-max`` quickstart and ``--base-hub-memory-max`` hub-beam trials (10 000
+  quickstart trials would need about 20 GB, 1000 hub-beam trials 10 GB);
 * the ratios of this tree to the base.
 
 A base tree is a checkout of the code before this work, e.g.
@@ -190,8 +192,12 @@ def main(argv=None) -> None:
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--hub-rounds", type=int, default=3)
     ap.add_argument("--memory", type=int, nargs="*", default=[100, 1000, 10000])
-    ap.add_argument("--hub-memory", type=int, nargs="*", default=[1000])
-    ap.add_argument("--base-memory-max", type=int, default=1000)
+    ap.add_argument("--hub-memory", type=int, nargs="*", default=[100, 1000])
+    ap.add_argument("--base-memory-max", type=int, default=1000,
+                    help="largest quickstart store the base is measured on")
+    ap.add_argument("--base-hub-memory-max", type=int, default=100,
+                    help="largest hub-beam store the base is measured on (its report "
+                         "loads every trial: about 10 GB for 1000)")
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--jobs", type=int, default=1, help=argparse.SUPPRESS)
@@ -223,29 +229,43 @@ def main(argv=None) -> None:
             record((name, "hub"), _measure(tree, "hub", args.hub))
     print(f"  hub-beam trials done ({time.strftime('%H:%M:%S')}, {_load()})", flush=True)
     memory = {}
-    for campaign, sizes in ((args.campaign, args.memory), (args.hub, args.hub_memory)):
+    for campaign, sizes, base_max in ((args.campaign, args.memory, args.base_memory_max),
+                                      (args.hub, args.hub_memory, args.base_hub_memory_max)):
         for n in sizes:
             for name, tree in trees.items():
-                if name == "base" and n > args.base_memory_max:
+                if name == "base" and n > base_max:
                     continue
                 memory[(name, Path(campaign).stem, n)] = _memory(tree, campaign, n)
             print(f"  memory of {n} {Path(campaign).stem} trials done "
                   f"({time.strftime('%H:%M:%S')}, {_load()})", flush=True)
     print(f"{_load()} at the end\n")
 
-    def med(key, field):
-        return statistics.median(x[field] for x in runs[key])
+    if args.rounds:
+        _print_rates(args, trees, engines, runs)
+    if args.hub_rounds:
+        _print_hub(trees, runs)
+    _print_memory(memory)
 
+
+STAGES = ("simulate", "frf", "identify", "bound", "update", "score")
+
+
+def _med(runs, key, field):
+    return statistics.median(x[field] for x in runs[key])
+
+
+def _print_rates(args, trees, engines, runs) -> None:
     print(f"quickstart, {args.trials} trials (median of {args.rounds} round(s); the engine "
           f"started and warmed first; elapsed includes gathering results.h5)")
     rates = {}
     for name in trees:
         for mode, jobs in engines:
             key = (name, mode, jobs)
-            rates[key] = args.trials / med(key, "elapsed")
+            rates[key] = args.trials / _med(runs, key, "elapsed")
             what = f"{jobs} local worker(s)" if mode == "local" else "Dask LocalCluster of 2"
             print(f"  {name:5s} {what:24s} {rates[key]:6.2f} trials/s "
-                  f"({med(key, 'elapsed'):6.1f} s; start-up {med(key, 'start_s'):4.1f} s)")
+                  f"({_med(runs, key, 'elapsed'):6.1f} s; start-up "
+                  f"{_med(runs, key, 'start_s'):4.1f} s)")
         if not args.no_dask:
             over = rates[(name, "local", 2)] / rates[(name, "dask", 2)] - 1
             print(f"  {name:5s} Dask's overhead against 2 local workers: {100 * over:+.1f} %")
@@ -253,24 +273,28 @@ def main(argv=None) -> None:
         for mode, jobs in engines:
             print(f"  ratio this/base, {mode} {jobs}: "
                   f"{rates[('this', mode, jobs)] / rates[('base', mode, jobs)]:.2f}x")
-    stages = ("simulate", "frf", "identify", "bound", "update", "score")
     print("\ntime by stage, worker seconds per trial (1 local worker, median of rounds):")
     for name in trees:
         st = runs[(name, "local", 1)]
-        per = {s: statistics.median(x["stages"].get(s, 0.0) for x in st) for s in stages}
-        tot = sum(per.values())
-        print(f"  {name:5s} " + "  ".join(f"{s} {per[s]:.3f}" for s in stages)
-              + f"  total {tot:.3f} s")
+        per = {s: statistics.median(x["stages"].get(s, 0.0) for x in st) for s in STAGES}
+        print(f"  {name:5s} " + "  ".join(f"{s} {per[s]:.3f}" for s in STAGES)
+              + f"  total {sum(per.values()):.3f} s")
+
+
+def _print_hub(trees, runs) -> None:
     print("\none 8-test hub-beam trial, all stages, one core (median):")
     for name in trees:
         h = runs[(name, "hub")]
-        secs = statistics.median(x["seconds"] for x in h)
-        per = {s: statistics.median(x["stages"].get(s, 0.0) for x in h) for s in stages}
-        print(f"  {name:5s} {secs:6.2f} s; rounds " + ", ".join(f"{x['seconds']:.2f}" for x in h)
-              + "; " + "  ".join(f"{s} {per[s]:.3f}" for s in stages))
+        per = {s: statistics.median(x["stages"].get(s, 0.0) for x in h) for s in STAGES}
+        print(f"  {name:5s} {_med(runs, (name, 'hub'), 'seconds'):6.2f} s; rounds "
+              + ", ".join(f"{x['seconds']:.2f}" for x in h) + "; "
+              + "  ".join(f"{s} {per[s]:.3f}" for s in STAGES))
     if "base" in trees:
-        ratio = med(("base", "hub"), "seconds") / med(("this", "hub"), "seconds")
+        ratio = _med(runs, ("base", "hub"), "seconds") / _med(runs, ("this", "hub"), "seconds")
         print(f"  ratio base/this: {ratio:.2f}x")
+
+
+def _print_memory(memory) -> None:
     print("\npeak resident memory (MB) of 'truthbench run --resume' (1 trial to run, "
           "results.h5, the report) and 'truthbench report', synthetic stores:")
     for (name, campaign, n), m in memory.items():

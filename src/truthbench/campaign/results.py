@@ -218,16 +218,6 @@ class StoredTrials(Sequence):
                 self._cache.pop(next(iter(self._cache)))
         return self._cache[i]
 
-    def index(self, number: int, *args) -> int:
-        """The position of trial ``number``.
-
-        Raises
-        ------
-        ValueError
-            No such trial.
-        """
-        return self.numbers.index(int(number), *args)
-
     def summaries(self):
         """Every trial's :class:`~truthbench.campaign.summary.TrialSummary`, in order:
         read from each file's ``summary`` (a trial of a file written before trials had
@@ -409,17 +399,10 @@ class CampaignResult:
             number = self.tables.first["ok"]
             if number is None:
                 return trials[0]
-        if isinstance(trials, StoredTrials):
-            try:
-                return trials[trials.index(number)]
-            except ValueError:
-                pass
-        else:
-            for t in trials:
-                if t.trial == number:
-                    return t
-        held = [t.trial for t in trials] if not isinstance(trials, StoredTrials) \
-            else list(trials.numbers)
+        held = (list(trials.numbers) if isinstance(trials, StoredTrials)
+                else [t.trial for t in trials])
+        if number in held:
+            return trials[held.index(number)]
         raise KeyError(f"no trial {number}; the result holds trials "
                        f"{', '.join(str(t) for t in held) or 'none'}")
 

@@ -299,6 +299,7 @@ class TrialStore:
         tmp = path.with_name(path.name + ".part")
         try:
             with h5py.File(tmp, "w") as out:
+                hdf5.limit_metadata_cache(out)  # memory flat in the number of trials
                 nominal = None
                 trials = out.create_group("trials")
                 for t in done:
