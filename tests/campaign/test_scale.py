@@ -1,7 +1,9 @@
-"""Running at scale: the streamed store, resume after SIGKILL, worker counts and Dask,
-a failing disk, Ctrl-C, and the folder rules of ``truthbench run``."""
+"""Running at scale: the streamed store, resume after SIGKILL, worker counts and Dask (a
+LocalCluster, and a scheduler and workers started as users start them, one of them killed
+mid-run), a failing disk, Ctrl-C, and the folder rules of ``truthbench run``."""
 
 import errno
+import json
 import os
 import signal
 import subprocess
@@ -151,6 +153,131 @@ def test_worker_counts_and_dask_give_bitwise_identical_stores(small_spec, tmp_pa
     with make_engine(2, "local") as engine:
         run_to_store(small_spec, out, trials=n, engine=engine)
     _assert_same(reference, TrialStore(out).consolidate())
+
+
+# ---- a Dask cluster as users run one: scheduler and workers on loopback ---------------
+def _dask(*args, log: Path) -> subprocess.Popen:
+    """A ``dask`` command in its own process group, with this tree on the path; its
+    output goes to ``log`` (read when a test fails)."""
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    return subprocess.Popen([sys.executable, "-m", "dask", *map(str, args)], env=env,
+                            stdout=log.open("w"), stderr=subprocess.STDOUT,
+                            start_new_session=True)
+
+
+class Cluster:
+    """A scheduler on a free loopback port and ``n`` single-threaded workers without
+    nannies (a killed worker stays dead), ended with :meth:`close`."""
+
+    def __init__(self, folder: Path, n: int = 2):
+        self.folder = folder
+        self.procs: list[subprocess.Popen] = []
+        info = folder / "scheduler.json"
+        self.scheduler = self._start("scheduler", "--host", "127.0.0.1", "--port", 0,
+                                     "--no-dashboard", "--scheduler-file", info)
+        _wait_for(lambda: info.exists() and info.stat().st_size > 0, 60,
+                  f"the scheduler's address ({self._logs()})")
+        self.address = json.loads(info.read_text())["address"]
+        assert self.address.startswith("tcp://127.0.0.1:")
+        self.workers = [self._start("worker", self.address, "--nthreads", 1,
+                                    "--no-nanny", "--no-dashboard", "--host", "127.0.0.1",
+                                    "--name", f"w{k}", log=f"worker{k}")
+                        for k in range(n)]
+        _wait_for(lambda: self.n_workers() == n, 90, f"{n} workers ({self._logs()})")
+
+    def _start(self, what, *args, log=None) -> subprocess.Popen:
+        proc = _dask(what, *args, log=self.folder / f"{log or what}.log")
+        self.procs.append(proc)
+        return proc
+
+    def _logs(self) -> str:
+        return "; ".join(f"{p.name}: {p.read_text()[-600:]}"
+                         for p in sorted(self.folder.glob("*.log")))
+
+    def n_workers(self) -> int:
+        from distributed import Client
+
+        with Client(self.address, timeout="10s") as client:
+            return len(client.scheduler_info()["workers"])
+
+    def busy(self, name: str) -> bool:
+        """Whether the worker called ``name`` is running a task."""
+        from distributed import Client
+
+        with Client(self.address, timeout="10s") as client:
+            workers = client.scheduler_info()["workers"]
+            address = [a for a, w in workers.items() if w.get("name") == name]
+            return bool(address and client.processing(address)[address[0]])
+
+    def close(self) -> None:
+        """End the workers, then the scheduler (a worker whose scheduler is gone would
+        wait for it to come back)."""
+        for p in reversed(self.procs):
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGTERM)
+            try:
+                p.wait(15)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait(5)
+
+
+@pytest.fixture()
+def cluster(tmp_path):
+    pytest.importorskip("distributed", reason="dask.distributed is not installed (the "
+                                              "'dask' extra)")
+    c = Cluster(tmp_path)
+    try:
+        yield c
+    finally:
+        c.close()
+    assert not any(_alive(p.pid) for p in c.procs)
+
+
+@pytest.mark.slow
+def test_a_tcp_cluster_gives_the_local_store_bit_for_bit(cluster, small_file, reference,
+                                                         tmp_path):
+    out = tmp_path / "dask"
+    assert main(["run", str(small_file), "--out", str(out), "--trials", str(N_TRIALS),
+                 "--scheduler", cluster.address, "-q"]) == 0
+    _assert_same(reference, out / "results.h5")
+    assert cluster.n_workers() == 2  # the run leaves the cluster as it found it
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_run_loses_and_repeats_no_trial(cluster, small_spec, small_file,
+                                                            tmp_path):
+    """SIGKILL one of the two workers once the run has stored a batch (four trials per
+    task): the scheduler runs the lost worker's batch on the other, the run completes,
+    every trial is stored once, and the results equal a local run's."""
+    n = 6 * 4  # six batches: the killed worker is in the middle of one
+    reference = _reference(small_spec, tmp_path / "local", n)
+    out = tmp_path / "dask"
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    proc = subprocess.Popen([sys.executable, "-m", "truthbench", "run", str(small_file),
+                             "--out", str(out), "--trials", str(n), "--scheduler",
+                             cluster.address, "-v"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    store = TrialStore(out)
+    try:
+        _wait_for(lambda: len(store.done()) >= 1 or proc.poll() is not None, 120,
+                  "the first stored trial")
+        _wait_for(lambda: cluster.busy("w0") or proc.poll() is not None, 60,
+                  "the first worker to run a batch")
+        at_kill = len(store.done())
+        os.killpg(cluster.workers[0].pid, signal.SIGKILL)
+        _, err = proc.communicate(timeout=180)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, err[-3000:]
+    assert at_kill < n, "the run ended before the worker was killed"
+    assert cluster.workers[0].wait(10) == -signal.SIGKILL
+    stored = [int(line.split()[2]) for line in err.splitlines()
+              if line.startswith("INFO: trial ") and "stored" in line]
+    assert sorted(stored) == list(range(n))  # none lost, none twice
+    _assert_same(reference, out / "results.h5")
+    _wait_for(lambda: cluster.n_workers() == 1, 30, "the scheduler to drop the dead worker")
 
 
 # ---- Ctrl-C, SIGKILL, then --resume ----------------------------------------------------

@@ -382,7 +382,7 @@ def test_the_command_accepts_the_coherence_file(tmp_path, truth, capsys):
     frf = frf_file(tmp_path / "frf.uff", H)
     c = coh_file(tmp_path / "coh.uff", coh, shuffled())
     d = _diagnose_json(capsys, frf, c, "--model", MODEL, "--candidate", "time_delay")
-    assert [t["candidate"] for t in d["candidates"]] == ["time_delay"]
+    assert d["settings"]["candidates"] == ["time_delay"]
     # the model's FRFs with 1 % noise: nothing missing
     assert d["found"] == []
     # a level for a name that matches no data set: exit 2, the key and names named

@@ -127,6 +127,21 @@ def stage_arrays(stages):
     return tuple(names), hold, tests, truth, mean_model, bound
 
 
+def truths_inside(arrays, k_sigma: float):
+    """Which true values of :func:`stage_arrays`' ``arrays`` lie inside their trial's
+    bound, and which count (a finite truth and bound).
+
+    Returns
+    -------
+    inside, finite : ndarray of bool, shape (n, T, p)
+    """
+    _, _, _, truth, mean_model, bound = arrays
+    std = bound / k_sigma
+    finite = np.isfinite(truth) & np.isfinite(bound)[:, None, :]
+    inside = np.abs(truth - mean_model[:, None, :]) <= k_sigma * std[:, None, :]
+    return inside, finite
+
+
 def coverage_summary(stages, k_sigma: float = 3.0,
                      confidence: float = 0.95) -> CoverageSummary | None:
     """Coverage of the bound over the trials' uncertainty stages.
@@ -153,9 +168,7 @@ def coverage_summary(stages, k_sigma: float = 3.0,
     if arrays is None:
         return None
     names, hold, tests, truth, mean_model, bound = arrays
-    std = bound / k_sigma
-    finite = np.isfinite(truth) & np.isfinite(bound)[:, None, :]
-    inside = np.abs(truth - mean_model[:, None, :]) <= k_sigma * std[:, None, :]
+    inside, finite = truths_inside(arrays, k_sigma)
     build = ~hold
     n_build = int(build.sum())
     clustered = dict(confidence=confidence,  # one trial: no clusters to compare

@@ -261,3 +261,75 @@ def plot_frf_band(result, trial, *, input: int = 0, max_outputs: int = 4):  # no
                  f"trial {trial.trial}", fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def plot_convergence(result, *, max_curves: int = 6):
+    """The coverage and error statistics against the number of trials
+    (:func:`truthbench.campaign.convergence.convergence`), each with its confidence
+    band: one panel per statistic the campaign has (coverage of the bound, identified
+    frequency error per mode, parameter error after the primary updater per parameter).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Trials on a logarithmic axis; coverage as a fraction, errors in %.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two trials with an uncertainty stage or an update.
+    """
+    from matplotlib import ticker
+
+    from truthbench.campaign.convergence import convergence
+
+    c = convergence(result)
+    panels = []
+    if c.coverage is not None:
+        panels.append("coverage")
+        if c.modes:
+            panels.append("identification")
+    if c.parameter_error is not None:
+        panels.append("parameters")
+    if not panels:
+        raise ValueError("no convergence figure: fewer than two trials with an uncertainty "
+                         "stage or an update")
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(panels), 1, figsize=(7.0, 2.6 * len(panels) + 0.6),
+                             squeeze=False)
+    level = f"{100 * c.confidence:g} %"
+    for ax, panel in zip(axes[:, 0], panels, strict=True):
+        if panel == "coverage":
+            n, (p, lo, hi) = c.trials, c.coverage.T
+            ax.fill_between(n, lo, hi, color="C0", alpha=0.25, lw=0,
+                            label=f"{level} interval (trial-clustered)")
+            ax.plot(n, p, "C0-", lw=1.3, label=f"{c.coverage_of} truths inside the bound")
+            if c.expected is not None:
+                ax.axhline(c.expected, color="k", ls="--", lw=1.0,
+                           label=f"normal theory {c.expected:.3f}")
+            ax.set_ylabel("coverage [-]")
+        else:
+            if panel == "identification":
+                n, stats, names = c.trials, c.identification, c.modes
+                ax.set_ylabel("identified frequency\nerror [%]")
+            else:
+                n, stats, names = c.parameter_trials, c.parameter_error, c.parameters
+                ax.set_ylabel(f"parameter error after\n{result.primary_method} [%]")
+            for k, name in enumerate(names[:max_curves]):
+                color = f"C{k % 10}"
+                ax.fill_between(n, stats[:, 1, k], stats[:, 2, k], color=color, alpha=0.2,
+                                lw=0)
+                ax.plot(n, stats[:, 0, k], color=color, lw=1.2, label=f"{name} (mean)")
+                if panel == "parameters":
+                    ax.plot(n, c.parameter_rms[:, k], color=color, ls=":", lw=1.0,
+                            label=f"{name} (RMS)")
+            ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(ticker.NullFormatter())
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    axes[-1, 0].set_xlabel("trials")
+    fig.suptitle(f"Convergence with the number of trials ({level} bands)", fontsize=10)
+    fig.tight_layout()
+    return fig

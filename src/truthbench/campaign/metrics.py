@@ -13,17 +13,38 @@ import numpy as np
 
 from truthbench.plants import Sensor
 
+_MODES_CACHE: dict = {}
+_MODES_CACHE_SIZE = 8
+
+
+def lowest_modes(model, n_modes: int):
+    """``model.modes(n_modes)``, remembered by the content of its mass and stiffness
+    matrices (the last few of this process): a trial solves the nominal model, and each
+    distinct truth, once for its scores and its uncertainty stage, whatever its tests'
+    channels and dashpots (the modes depend on ``M`` and ``K`` alone)."""
+    key = (n_modes, *(a.tobytes() for m in (model.M, model.K)
+                      for a in (m.data, m.indices, m.indptr)))
+    modes = _MODES_CACHE.pop(key, None)
+    if modes is None:
+        modes = model.modes(n_modes)
+    _MODES_CACHE[key] = modes  # most recently used last
+    while len(_MODES_CACHE) > _MODES_CACHE_SIZE:
+        _MODES_CACHE.pop(next(iter(_MODES_CACHE)))
+    return modes
+
 
 def modes_at_sensors(model, sensors, band_hz, n_modes):
     """Elastic modes of ``model`` inside ``band_hz`` that its output rows see, as
-    :class:`~truthbench.identify.ModalParameters` with shapes at the outputs."""
+    :class:`~truthbench.identify.ModalParameters` with shapes at the outputs: the real
+    modes' frequencies and the damping ratios of their complex poles
+    (:func:`truthbench.model.complex_modes`, which includes non-proportional
+    damping)."""
     from truthbench.identify import ModalParameters
-    from truthbench.model import modal_table
+    from truthbench.model import complex_modes
 
-    modes = model.modes(min(n_modes, model.n_dofs))
-    rows = modal_table(model, modes)
-    f = np.array([r["freq_hz"] for r in rows])
-    z = np.array([r["damping_ratio"] for r in rows])
+    modes = lowest_modes(model, min(n_modes, model.n_dofs))
+    f = modes.freq_hz
+    z = complex_modes(model, modes).damping_ratio
     at_sensors = model.C_out @ modes.shapes
     norms = np.linalg.norm(at_sensors, axis=0)
     seen = norms > 1e-6 * norms.max()  # modes the sensors cannot see are left out

@@ -13,12 +13,26 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from truthbench._validation import available_memory_bytes, format_bytes
 from truthbench.errors import CampaignError
 
 _BASE_PROCESS_MB = 180.0
 """Resident memory of a worker with numpy, scipy, h5py and truthbench loaded (MB;
 measured 150-200 MB here)."""
+
+_REPORT_BASE_MB = 250.0
+"""Resident memory of the report process with numpy, scipy, h5py, pandas, matplotlib and
+truthbench loaded and a figure drawn (MB; measured 237 MB for 100 quickstart trials)."""
+
+_ROW_BYTES = 200.0
+"""Memory of one row of a per-trial table kept by the report (a tuple of a dozen numbers
+and names; :class:`~truthbench.campaign.tables.Tables`)."""
+
+_SUMMARY_TRIAL_BYTES = 2000.0
+"""Memory of one trial's summary beyond its rows: its uncertainty stage object and
+arrays' headers (bytes)."""
 
 _SECONDS_PER_OP = 2e-9
 """Seconds per complex multiply-add of the dominant kernels (modal FRF sums) on one core
@@ -99,7 +113,9 @@ class ResourceEstimate:
     store_mb : float
         The whole run's store (and ``results.h5``; MB).
     report_mb : float
-        Memory of the report, which loads every trial (MB).
+        Memory of the report (MB): the process, its per-trial tables (a summary of every
+        trial, :mod:`truthbench.campaign.summary`) and a few trials read whole for the
+        figures.
     seconds_per_trial : float
         Rough wall-clock seconds of one trial on one core.
     lines : str
@@ -123,7 +139,8 @@ def estimate_resources(plan, trials: int | None = None) -> ResourceEstimate:
     (:func:`simulation_bytes`) and the update's arrays, over the process's own."""
     spec = plan.spec
     n_trials = spec.campaign.trials if trials is None else int(trials)
-    m = plan.plant.build(plan.nominal).n_dofs
+    model = plan.plant.build(plan.nominal)
+    m = model.n_dofs
     keep = spec.output.time_histories
     worker, store, store0, ops, lines = 0.0, 0.0, 0.0, 0.0, []
     update_lines = 0
@@ -137,8 +154,9 @@ def estimate_resources(plan, trials: int | None = None) -> ResourceEstimate:
         R = t.test.oversample if t.time_path else 1
         worker = max(worker, simulation_bytes(t, truth_dofs(plan, t))[0] / 1e6)
         frf = 16 * lines_all * n_out * n_in
-        store += (frf * 3 + 8 * lines_all * n_out * n_in + 8 * lines_all) / 1e6 + 0.05
-        store0 += 8 * n * (n_in + n_out) / 1e6  # the time histories
+        frfs = (frf * 3 + 8 * lines_all * n_out * n_in + 8 * lines_all) / 1e6
+        store += 0.05 + (frfs if spec.output.frfs == "all" else 0.0)
+        store0 += frfs if spec.output.frfs != "all" else 0.0  # trial 0 keeps its FRFs
         # the modal sum over the excited lines, and time stepping on the time path
         ops += excited * m * n_out * n_in * (1 + 4 * R * (R > 1)) + R * n * m * (R > 1)
         if plan.methods:
@@ -153,14 +171,32 @@ def estimate_resources(plan, trials: int | None = None) -> ResourceEstimate:
         ops += len(plan.methods) * 10 * update_lines * m * 8 * (2 + p)
     ops += len(plan.tests) * m**3 * 4  # eigen-solutions
     worker += _BASE_PROCESS_MB + 8 * m * m * 8 / 1e6
-    first = store + store0 if keep in ("first_trial", "all") else store
-    per = store + store0 if keep == "all" else store
+    # the report's tables: per trial, a row per parameter and updater, per mode of the
+    # analysis band and model (modal accuracy pairs at most 30 modes), per test (two
+    # tables); the uncertainty stage holds three numbers and a flag per test and bounded
+    # parameter (a frequency and a damping ratio per mode of its band, at most 40)
+    f = model.modes(min(40, m)).freq_hz
+    in_band = [int(np.sum((f > 0) & (f >= lo) & (f <= hi)))
+               for lo, hi in (plan.analysis_band_hz, plan.uncertainty_band_hz)]
+    n_methods = len(plan.methods)
+    rows = (len(plan.update_names) * n_methods
+            + min(30, in_band[0]) * (1 + n_methods) * (n_methods > 0)
+            + 2 * len(plan.tests) + 2)
+    stage = 25 * len(plan.tests) * 2 * in_band[1] if len(plan.tests) > 1 else 0
+    summary_mb = (rows * _ROW_BYTES + stage + _SUMMARY_TRIAL_BYTES) / 1e6
+    histories = sum(8 * t.samples * (len(t.actuators) + len(t.sensors)) / 1e6
+                    for t in plan.tests)
+    first = store + store0 + (histories if keep in ("first_trial", "all") else 0.0)
+    per = store + (histories if keep == "all" else 0.0)
     total = first + per * (n_trials - 1)
     lines.append(f"model: {m} DOFs (every mode is used)")
     lines.append(f"{n_trials} trials x {per:.2f} MB stored per trial"
-                 + (f" (the first {first:.2f} MB with its time histories)"
+                 + (f" (trial 0 {first:.2f} MB: it keeps its time histories or FRFs)"
                     if first != per else ""))
-    return ResourceEstimate(m, worker, per, total, total * 1.2 + _BASE_PROCESS_MB,
+    report = _REPORT_BASE_MB + n_trials * summary_mb + 3 * first
+    lines.append(f"report: {n_trials} trial summaries x {1000 * summary_mb:.1f} kB, and "
+                 f"the trials its figures show read whole")
+    return ResourceEstimate(m, worker, per, total, report,
                             max(ops * _SECONDS_PER_OP, 0.01), tuple(lines))
 
 
@@ -180,7 +216,7 @@ def check_resources(est: ResourceEstimate, *, workers: int, folder,
     ------
     CampaignError
         Naming the estimate and what is available: workers' memory, the report's memory
-        (it loads every trial), the store on disk.
+        (a summary of every trial), the store on disk.
     """
     memory_mb = available_memory_mb() if memory_mb is None else memory_mb
     if free_mb is None:
@@ -197,7 +233,8 @@ def check_resources(est: ResourceEstimate, *, workers: int, folder,
     if report and memory_mb is not None and est.report_mb > memory_mb:
         raise CampaignError(
             f"the report of {est.store_mb / max(est.store_mb_per_trial, 1e-9):.0f} trials "
-            f"would need about {est.report_mb:.0f} MB of memory (it loads every trial) and "
+            f"would need about {est.report_mb:.0f} MB of memory (it keeps a summary of "
+            f"every trial) and "
             f"{memory_mb:.0f} MB are available; run fewer --trials ({how})")
     if est.store_mb * 1.1 > free_mb:
         raise CampaignError(

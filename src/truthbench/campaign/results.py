@@ -21,7 +21,9 @@ Looking at a result
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -33,6 +35,8 @@ from truthbench.measure.frfdata import FRFData
 
 if TYPE_CHECKING:
     from truthbench.campaign.frf_band_stage import FrfBandStage
+    from truthbench.campaign.summary import TrialSummary
+    from truthbench.campaign.tables import Tables
 
 STAGES = ("simulate", "frf", "identify", "bound", "update", "score")
 """Stages timed per trial (:attr:`TrialResult.seconds`): truth simulation, FRF
@@ -136,6 +140,11 @@ class TrialResult:
     frf_band : FrfBandStage or None
         The FRF-domain uncertainty model
         (:class:`~truthbench.campaign.frf_band_stage.FrfBandStage`), or None.
+    summary : TrialSummary or None
+        What the tables and the report need of the trial
+        (:class:`~truthbench.campaign.summary.TrialSummary`): set by the trial that ran
+        it and read back from its file; None for a trial built otherwise (then
+        computed from it when needed).
     """
 
     trial: int
@@ -151,6 +160,7 @@ class TrialResult:
     uncertainty: object | None = None
     seconds: dict = field(default_factory=dict)
     frf_band: FrfBandStage | None = None
+    summary: TrialSummary | None = None
 
     def test(self, name: str) -> TestRecord:
         """The test record called ``name``.
@@ -167,6 +177,77 @@ class TrialResult:
                        f"{', '.join(r.name for r in self.tests) or 'none'}")
 
 
+class StoredTrials(Sequence):
+    """The trials of results files, read from disk one at a time when used: the
+    :attr:`CampaignResult.trials` of a loaded result.
+
+    Indexing or iterating reads a trial whole (FRFs, model FRFs, time histories) and
+    keeps the last two read; :meth:`summaries` reads only each trial's summary. So a
+    result of ten thousand trials is loaded, tabulated and reported with a few trials in
+    memory at a time.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+        The campaign the files store.
+    entries : sequence of (str, str)
+        ``(file, group key under /trials)`` of every trial, in trial order.
+    """
+
+    def __init__(self, spec: CampaignSpec, entries):
+        self.spec = spec
+        self.entries = tuple((str(f), str(k)) for f, k in entries)
+        self.numbers = tuple(int(k) for _, k in self.entries)
+        self._cache: dict = {}
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return tuple(self[k] for k in range(*i.indices(len(self))))
+        i = range(len(self))[i]  # negative indices, IndexError
+        if i not in self._cache:
+            from truthbench.io import hdf5
+
+            path, key = self.entries[i]
+            with hdf5.reading(path) as f:
+                self._cache[i] = _trial(self.spec, hdf5.read_trial(
+                    f, key, hdf5.read_attrs(f), _legacy(self.spec)))
+            while len(self._cache) > 2:
+                self._cache.pop(next(iter(self._cache)))
+        return self._cache[i]
+
+    def summaries(self):
+        """Every trial's :class:`~truthbench.campaign.summary.TrialSummary`, in order:
+        read from each file's ``summary`` (a trial of a file written before trials had
+        one is read whole and summarised)."""
+        from truthbench.campaign.summary import TrialSummary, trial_summary
+        from truthbench.io import hdf5
+
+        i, n = 0, len(self.entries)
+        while i < n:
+            path = self.entries[i][0]
+            with hdf5.reading(path) as f:
+                while i < n and self.entries[i][0] == path:
+                    text, seconds = hdf5.read_summary(f, self.entries[i][1])
+                    yield (TrialSummary.from_json(text, seconds) if text is not None
+                           else trial_summary(self.spec, self[i]))
+                    i += 1
+
+
+def _summaries(spec, trials):
+    """The summaries of a sequence of trials (:class:`StoredTrials` reads them from its
+    files; a trial in memory gives its own, or one computed from it)."""
+    if isinstance(trials, StoredTrials):
+        yield from trials.summaries()
+        return
+    from truthbench.campaign.summary import trial_summary
+
+    for tr in trials:
+        yield tr.summary if tr.summary is not None else trial_summary(spec, tr)
+
+
 @dataclass(frozen=True)
 class CampaignResult:
     """Everything a campaign run produced, with what made it.
@@ -179,7 +260,9 @@ class CampaignResult:
         The truthbench version that ran the campaign.
     nominal : dict
         The nominal plant parameters.
-    trials : tuple of TrialResult
+    trials : sequence of TrialResult
+        In trial order: a tuple for a result in memory; for a loaded result a
+        :class:`StoredTrials`, which reads each trial from disk when it is used.
     created_utc : str or None
         When the results file was written (ISO 8601), for a loaded result.
     path : str or None
@@ -192,13 +275,17 @@ class CampaignResult:
     A single-test file of ``truthbench simulate`` loads as a result with one trial
     (the simulated trial's number) holding the one test, with an empty ``truth`` (the
     test's exact truth is its ``parameters``) and no update.
+
+    The tables, summaries, coverage, stage times and failed trials come from one pass
+    over the trials' summaries (:attr:`tables`), made the first time one is asked for;
+    only the figures read a trial whole.
     """
 
     spec: CampaignSpec
     seed: int
     version: str
     nominal: dict
-    trials: tuple[TrialResult, ...]
+    trials: Sequence[TrialResult]
     created_utc: str | None = None
     path: str | None = None
     injected: tuple[str, ...] = ()
@@ -209,10 +296,12 @@ class CampaignResult:
         """Read a results file written by :meth:`save` (or ``truthbench run``), a
         single-test file of ``truthbench simulate``, or a run's folder.
 
-        A single-test file gives a result with one trial (its number from the file)
-        holding the one test, an empty trial truth and no update; ``injected`` lists the
-        effects injected. A run's folder gives its ``results.h5``, or, for a run that has
-        not finished (interrupted, or still running), the trials its store holds
+        A results file's trials are read when they are used (:class:`StoredTrials`); its
+        tables from the trials' summaries alone. A single-test file gives a result with
+        one trial (its number from the file) holding the one test, an empty trial truth
+        and no update; ``injected`` lists the effects injected. A run's folder gives its
+        ``results.h5``, or, for a run that has not finished (interrupted, or still
+        running), the trials its store holds
         (:class:`~truthbench.campaign.store.TrialStore`). Files written before channels
         and FRF metadata were stored get them from the stored spec (channels without
         coordinates, the band from the spec's tests).
@@ -221,8 +310,8 @@ class CampaignResult:
         ------
         DataFormatError
             Naming the file: missing, not HDF5, not a truthbench results file, a stored
-            spec that is not a valid campaign, or a stored part that does not parse
-            (with its HDF5 path).
+            spec that is not a valid campaign; a stored part that does not parse (with
+            its HDF5 path) when its trial is read.
         """
         from truthbench.campaign.store import (
             RESULTS_FILE,
@@ -249,14 +338,17 @@ class CampaignResult:
         with hdf5.reading(path) as f:
             a = hdf5.read_attrs(f)
             spec = _stored_spec(a, path)
-            body = hdf5.read_body(f, a, _legacy(spec))
             common = dict(spec=spec, seed=int(a["seed"]), version=str(a["truthbench_version"]),
-                          created_utc=a.get("created_utc"), path=str(path),
-                          trials=tuple(_trial(spec, t) for t in body["trials"]))
+                          created_utc=a.get("created_utc"), path=str(path))
             if a["single_test"]:
+                body = hdf5.read_body(f, a, _legacy(spec))
                 return cls(nominal=spec.nominal_parameters(),
-                           injected=tuple(json.loads(a.get("injected", "[]"))), **common)
-            return cls(nominal=body["nominal"], **common)
+                           injected=tuple(json.loads(a.get("injected", "[]"))),
+                           trials=tuple(_trial(spec, t) for t in body["trials"]), **common)
+            nominal = hdf5.read_nominal(f)
+            keys = hdf5.trial_keys(f)
+        return cls(nominal=nominal, trials=StoredTrials(spec, [(path, k) for k in keys]),
+                   **common)
 
     def save(self, path: str | Path) -> Path:
         """Write to HDF5 (:func:`~truthbench.campaign.store.write_results`)."""
@@ -265,11 +357,20 @@ class CampaignResult:
         return write_results(self, path)
 
     # ---- views -----------------------------------------------------------------------
+    @cached_property
+    def tables(self) -> Tables:
+        """The per-trial tables (:class:`~truthbench.campaign.tables.Tables`), reduced
+        from the trials' summaries in one pass the first time they are asked for."""
+        from truthbench.campaign.tables import tables_of
+
+        return tables_of(self, _summaries(self.spec, self.trials))
+
     @property
     def stage_seconds(self) -> dict:
         """Wall-clock seconds per stage summed over the trials (worker time, not elapsed
         time)."""
-        return {k: float(sum(t.seconds.get(k, 0.0) for t in self.trials)) for k in STAGES}
+        df = self.tables.frame("stage_times")
+        return {k: float(df[k].sum()) for k in STAGES}
 
     @property
     def primary_method(self) -> str | None:
@@ -279,8 +380,8 @@ class CampaignResult:
 
     @property
     def failed(self) -> tuple[TrialResult, ...]:
-        """The trials that failed."""
-        return tuple(t for t in self.trials if t.error)
+        """The trials that failed (each read whole)."""
+        return tuple(self.trial(t) for t, _ in self.tables.failed)
 
     def trial(self, number: int | None = None) -> TrialResult:
         """The trial numbered ``number``; default the first trial that did not fail (or
@@ -291,16 +392,19 @@ class CampaignResult:
         KeyError
             Naming the trial and the ones the result holds.
         """
+        trials = self.trials
         if number is None:
-            ok = [t for t in self.trials if not t.error]
-            if not ok and not self.trials:
+            if not len(trials):
                 raise KeyError("the result holds no trial")
-            return (ok or list(self.trials))[0]
-        for t in self.trials:
-            if t.trial == number:
-                return t
+            number = self.tables.first["ok"]
+            if number is None:
+                return trials[0]
+        held = (list(trials.numbers) if isinstance(trials, StoredTrials)
+                else [t.trial for t in trials])
+        if number in held:
+            return trials[held.index(number)]
         raise KeyError(f"no trial {number}; the result holds trials "
-                       f"{', '.join(str(t.trial) for t in self.trials) or 'none'}")
+                       f"{', '.join(str(t) for t in held) or 'none'}")
 
     def to_pandas(self, table: str = "parameters"):
         """A tidy per-trial table (:func:`truthbench.campaign.tables.table`).
@@ -343,7 +447,7 @@ class CampaignResult:
         ``k_sigma``), or None when no trial has an uncertainty stage."""
         from truthbench.campaign.coverage import coverage_summary
 
-        return coverage_summary([t.uncertainty for t in self.trials if not t.error],
+        return coverage_summary([u for _, u in self.tables.stages],
                                 self.spec.uncertainty.k_sigma, confidence)
 
     def plot(self, kind: str = "frf", *, trial: int | None = None, test: str | None = None,
@@ -352,12 +456,13 @@ class CampaignResult:
 
         Parameters
         ----------
-        kind : {"frf", "poles", "frf_band", "calibration"}
+        kind : {"frf", "poles", "frf_band", "convergence", "calibration"}
             ``"frf"``: one test's data against the initial and updated model, magnitude
             and phase (and coherence) per output, with units; ``"poles"``: the poles of
             the tests with the bound (Figure 10.6), one panel per mode; ``"frf_band"``:
-            the FRF-domain band with the models; ``"calibration"``: held-out coverage
-            against k.
+            the FRF-domain band with the models; ``"convergence"``: coverage and error
+            statistics against the number of trials, with confidence bands;
+            ``"calibration"``: held-out coverage against k.
         trial : int, optional
             Trial number; default the first that did not fail.
         test : str, optional
@@ -372,7 +477,7 @@ class CampaignResult:
         from truthbench.campaign import figures
 
         funcs = {"frf": figures.plot_frf, "poles": figures.plot_poles,
-                 "frf_band": figures.plot_frf_band}
+                 "frf_band": figures.plot_frf_band, "convergence": figures.plot_convergence}
         if kind == "calibration":
             cov = self.coverage()
             if cov is None:
@@ -381,6 +486,8 @@ class CampaignResult:
         if kind not in funcs:
             raise ValueError(f"unknown figure {kind!r}; expected one of "
                              f"{', '.join([*funcs, 'calibration'])}")
+        if kind == "convergence":
+            return figures.plot_convergence(self, **kwargs)
         tr = self.trial(trial)
         if kind == "frf":
             return figures.plot_frf(self, tr, test, **kwargs)
@@ -453,5 +560,9 @@ def _trial(spec, d: dict):
         band = FrfUncertainty(b["mean"], b["cov"], b["n_tests"], b["k_sigma"], b["freq_hz"])
         kw["frf_band"] = FrfBandStage(b["tests"], band, b["line_mask"], b["inside"],
                                       b["output_labels"], b["input_labels"])
+    if d.get("summary") is not None:
+        from truthbench.campaign.summary import TrialSummary
+
+        kw["summary"] = TrialSummary.from_json(d["summary"], d.get("seconds"))
     return TrialResult(d["trial"], tests, d["truth"], error=d.get("error"),
                        seconds=d.get("seconds", {}), **kw)

@@ -486,6 +486,11 @@ class OutputSpec(_Strict):
     time_histories: Literal["first_trial", "all", "none"] = "first_trial"
     """Recorded time histories (u, y) of every test: of trial 0 only, of every trial, or
     of none (FRFs, truth records and modes are always kept)."""
+    frfs: Literal["all", "first_trial"] = "all"
+    """The FRFs, coherence, model FRFs and FRF band of every trial, or of trial 0 only:
+    the other trials keep their summary (every number the report tabulates), truth
+    records, identified modes, updates and uncertainty stage, a few kB instead of about
+    a MB per test (for campaigns of thousands of trials)."""
 
 
 class StudySpec(_Strict):

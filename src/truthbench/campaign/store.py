@@ -20,6 +20,7 @@ import errno
 import json
 import os
 import shutil
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -53,18 +54,30 @@ def _units(spec) -> dict[str, str]:
     return {n: parameter_unit(spec, n) for n in spec.update.parameters}
 
 
+def _summary_json(spec, trial) -> str:
+    """A trial's summary as JSON text: its own, or computed from it
+    (:mod:`truthbench.campaign.summary`)."""
+    from truthbench.campaign.summary import trial_summary
+
+    return (trial.summary if trial.summary is not None
+            else trial_summary(spec, trial)).to_json()
+
+
 def write_results(result, path: str | Path) -> Path:
     """Write a :class:`~truthbench.campaign.results.CampaignResult` to HDF5
-    (:func:`truthbench.io.hdf5.write_results`); the file appears complete or not at all."""
+    (:func:`truthbench.io.hdf5.write_results`), every trial with its summary, one trial
+    in memory at a time; the file appears complete or not at all."""
     return hdf5.write_results(path, _head(result.spec, result.seed, result.version),
-                              result.nominal, result.trials, _units(result.spec))
+                              result.nominal, result.trials, _units(result.spec),
+                              summary=lambda tr: _summary_json(result.spec, tr))
 
 
 def trial_image(spec, seed: int, version: str, nominal: dict, trial) -> bytes:
     """One trial (:class:`~truthbench.campaign.results.TrialResult`) of a run of
-    ``spec`` as the bytes of a results file holding it alone
+    ``spec`` as the bytes of a results file holding it alone, with its summary
     (:func:`truthbench.io.hdf5.results_image`)."""
-    return hdf5.results_image(_head(spec, seed, version), nominal, trial, _units(spec))
+    return hdf5.results_image(_head(spec, seed, version), nominal, trial, _units(spec),
+                              _summary_json(spec, trial))
 
 
 def write_test_record(record, path: str | Path, *, spec, seed: int, trial: int,
@@ -243,24 +256,21 @@ class TrialStore:
 
     def load(self):
         """The stored trials as a :class:`~truthbench.campaign.results.CampaignResult`
-        (all in memory; a partial store gives the trials it holds)."""
-        from dataclasses import replace
-
-        from truthbench.campaign.results import CampaignResult
+        whose trials are read from their files when used
+        (:class:`~truthbench.campaign.results.StoredTrials`); a partial store gives the
+        trials it holds."""
+        from truthbench.campaign.results import CampaignResult, StoredTrials
+        from truthbench.campaign.spec import parse_campaign
 
         head = self.header()
-        trials, first = [], None
-        for t in self.done():
-            res = CampaignResult.load(self.trial_path(t))
-            first = first or res
-            trials.extend(res.trials)
-        if first is None:
-            from truthbench.campaign.spec import parse_campaign
-
+        done = self.done()
+        if not done:
             spec = parse_campaign(json.loads(head["spec_json"]), source=head.get("source"))
             return CampaignResult(spec, int(head["seed"]), head["truthbench_version"],
                                   spec.nominal_parameters(), (), path=str(self.dir))
-        return replace(first, trials=tuple(trials), path=str(self.dir),
+        first = CampaignResult.load(self.trial_path(done[0]))
+        entries = [(self.trial_path(t), hdf5.trial_key(t)) for t in done]
+        return replace(first, trials=StoredTrials(first.spec, entries), path=str(self.dir),
                        created_utc=head.get("created_utc"))
 
     def consolidate(self, path: str | Path | None = None, *, remove: bool = True) -> Path:
@@ -289,6 +299,7 @@ class TrialStore:
         tmp = path.with_name(path.name + ".part")
         try:
             with h5py.File(tmp, "w") as out:
+                hdf5.limit_metadata_cache(out)  # memory flat in the number of trials
                 nominal = None
                 trials = out.create_group("trials")
                 for t in done:

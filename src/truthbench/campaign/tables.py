@@ -12,6 +12,11 @@ Column names are snake_case with the unit at the end where a number could be mis
 ``truth``, ``updated`` hold values in the unit of their row's ``unit`` column.
 Trials that failed (``TrialResult.error``) are left out of every table except
 ``stage_times``.
+
+Every table comes from one pass over the trials' summaries
+(:class:`~truthbench.campaign.summary.TrialSummary`, :class:`Tables`), which a stored
+result reads without loading its trials' FRFs: the memory of the tables and of the
+report grows with their rows, not with the trials.
 """
 
 from __future__ import annotations
@@ -43,62 +48,179 @@ def _df(rows, columns):
     return pd.DataFrame(rows, columns=columns)
 
 
-def _ok(result):
-    return [t for t in result.trials if not t.error]
-
-
-def _updated(result):
-    return [t for t in _ok(result) if t.update is not None]
-
-
-# ---- per-trial tables ------------------------------------------------------------------
+# ---- per-trial tables, built in one pass over the trials' summaries ---------------------
 PARAMETER_COLUMNS = ("trial", "parameter", "unit", "method", "primary", "nominal", "truth",
                      "updated", "error_before_pct", "error_after_pct", "converged")
+MODE_COLUMNS = ("trial", "model", "mode", "truth_freq_hz", "freq_error_pct",
+                "damping_error_pct", "mac")
+COVERAGE_COLUMNS = ("trial", "test", "parameter", "held_out", "identified", "truth",
+                    "lower", "upper", "truth_inside")
+FRF_ERROR_COLUMNS = ("trial", "test", "frf_error_before_pct", "frf_error_after_pct")
+FRF_BAND_COLUMNS = ("trial", "tests", "n_tests", "k_sigma", "n_lines", "inside_initial",
+                    "inside_updated")
+TEST_COLUMNS = ("trial", "test", "band_low_hz", "band_high_hz", "n_averages",
+                "mean_coherence_in_band")
+
+
+class Tables:
+    """The per-trial tables of a result, reduced from its trials' summaries
+    (:class:`~truthbench.campaign.summary.TrialSummary`) in one pass: :meth:`add` each
+    summary in trial order, then :meth:`frame` gives a table. Memory grows with the
+    rows (tens of bytes per number), not with the trials' FRFs.
+
+    Attributes
+    ----------
+    trials : list of int
+        Every trial added, in order.
+    failed : list of (int, str)
+        The failed trials and their messages.
+    updated : list of int
+        The trials the primary updater ran in.
+    methods : dict
+        Every updater name of those trials (keys, in order of appearance).
+    stages : list of (int, UncertaintyStage)
+        The uncertainty stages of the trials that did not fail.
+    first : dict
+        The first trial that did not fail (``"ok"``), that updated (``"updated"``), with
+        an uncertainty stage (``"uncertainty"``), with an FRF band (``"frf_band"``); None
+        where there is none.
+    band : dict or None
+        The FRF band of the first trial with one (its summary's ``frf_band``).
+    """
+
+    def __init__(self, spec):
+        self.spec = spec
+        self.primary = (spec.update_methods() or [None])[0]
+        self.trials: list[int] = []
+        self.failed: list[tuple[int, str]] = []
+        self.updated: list[int] = []
+        self.methods: dict = {}  # every updater name seen, in order
+        self.stages: list = []
+        self.first = dict.fromkeys(("ok", "updated", "uncertainty", "frf_band"))
+        self.band: dict | None = None
+        self._rows = {name: [] for name in ("parameters", "modes", "frf_error", "frf_band",
+                                             "tests", "stage_times")}
+        self._units: dict = {}
+        self._names: dict = {}  # one str object per distinct name
+
+    def _name(self, text: str) -> str:
+        return self._names.setdefault(text, text)
+
+    def add(self, s) -> None:
+        """Reduce one trial's summary into the tables."""
+        from truthbench.campaign.results import STAGES
+
+        t = s.trial
+        self.trials.append(t)
+        secs = [float(s.seconds.get(k, 0.0)) for k in STAGES]
+        self._rows["stage_times"].append((t, *secs, float(sum(secs))))
+        if s.error:
+            self.failed.append((t, s.error))
+            return
+        self.first["ok"] = t if self.first["ok"] is None else self.first["ok"]
+        for rec in s.tests:
+            self._rows["tests"].append((t, self._name(rec.name), *rec.band_hz,
+                                        rec.n_averages, rec.coherence))
+        if s.uncertainty is not None:
+            self.stages.append((t, s.uncertainty))
+            if self.first["uncertainty"] is None:
+                self.first["uncertainty"] = t
+        if s.frf_band is not None:
+            b = s.frf_band
+            if self.first["frf_band"] is None:
+                self.band = b
+            self._rows["frf_band"].append((t, ", ".join(b["tests"]), len(b["tests"]),
+                                           b["k_sigma"], b["n_lines"],
+                                           b["inside"].get("initial", np.nan),
+                                           b["inside"].get("updated", np.nan)))
+            if self.first["frf_band"] is None:
+                self.first["frf_band"] = t
+        for model, acc in s.accuracy.items():
+            if model == "updated":  # the primary updater's, under its own name too
+                continue
+            model = self._name(model)
+            for i, (f, fe, de, mac) in enumerate(zip(
+                    acc["truth_freq_hz"], acc["freq_error_pct"], acc["damping_error_pct"],
+                    acc["mac"], strict=True)):
+                self._rows["modes"].append((t, model, i, float(f), float(fe), float(de),
+                                            float(mac)))
+        if not s.updated:
+            return
+        self.updated.append(t)
+        self.methods.update(dict.fromkeys(s.updates))
+        if self.first["updated"] is None:
+            self.first["updated"] = t
+        for rec in s.tests:
+            self._rows["frf_error"].append((t, self._name(rec.name), rec.frf_error_before_pct,
+                                            rec.frf_error_after_pct))
+        for method, res in s.updates.items():
+            if isinstance(res, str):  # that updater failed in this trial
+                continue
+            method = self._name(method)
+            for name, x0, x in zip(res["names"], res["initial"], res["values"], strict=True):
+                if name not in self._units:
+                    self._units[name] = parameter_unit(self.spec, name)
+                truth = float(s.truth.get(name, np.nan))
+                self._rows["parameters"].append(
+                    (t, self._name(name), self._units[name], method, method == self.primary,
+                     float(x0), truth, float(x), 100 * (x0 / truth - 1),
+                     100 * (x / truth - 1), bool(res["converged"])))
+
+    def frame(self, name: str):
+        """The per-trial table ``name`` (see :func:`table`) as a new DataFrame."""
+        from truthbench.campaign.results import STAGES
+
+        columns = {"parameters": PARAMETER_COLUMNS, "modes": MODE_COLUMNS,
+                   "frf_error": FRF_ERROR_COLUMNS, "frf_band": FRF_BAND_COLUMNS,
+                   "tests": TEST_COLUMNS, "stage_times": ("trial", *STAGES, "total")}
+        if name == "coverage":
+            return self._coverage()
+        return _df(self._rows[name], columns[name])
+
+    def _coverage(self):
+        import pandas as pd
+
+        names = [t.name for t in self.spec.tests]
+        parts = []
+        for t, u in self.stages:
+            n_tests, p = u.theta_tests.shape
+            centre = u.theta_0 + u.mean
+            parts.append(pd.DataFrame({
+                "trial": np.full(n_tests * p, t),
+                "test": np.repeat(np.array(names[:n_tests], dtype=object), p),
+                "parameter": np.tile(np.array(u.names, dtype=object), n_tests),
+                "held_out": np.repeat(np.asarray(u.holdout, bool), p),
+                "identified": np.asarray(u.theta_tests, float).ravel(),
+                "truth": np.asarray(u.theta_truth, float).ravel(),
+                "lower": np.tile(centre - u.bound, n_tests),
+                "upper": np.tile(centre + u.bound, n_tests),
+                "truth_inside": np.asarray(u.inside, bool).ravel()}))
+        if not parts:
+            return _df([], COVERAGE_COLUMNS)
+        return pd.concat(parts, ignore_index=True)
+
+
+def tables_of(result, summaries) -> Tables:
+    """The :class:`Tables` of ``result`` from its trials' summaries (an iterable, read
+    once)."""
+    out = Tables(result.spec)
+    for s in summaries:
+        out.add(s)
+    return out
 
 
 def parameters(result):
     """One row per trial, update parameter and updater: ``nominal`` (the starting value),
     ``truth`` (the trial's hardware), ``updated``, relative errors against the truth
     before and after (%), whether the updater converged."""
-    primary = (result.spec.update_methods() or [None])[0]
-    units = {}
-    rows = []
-    for tr in _updated(result):
-        for method, res in tr.comparison.items():
-            if isinstance(res, str):  # that updater failed in this trial
-                continue
-            for name, x0, x in zip(res.names, res.initial, res.values, strict=True):
-                if name not in units:
-                    units[name] = parameter_unit(result.spec, name)
-                truth = float(tr.truth.get(name, np.nan))
-                rows.append((tr.trial, name, units[name], method, method == primary,
-                             float(x0), truth, float(x), 100 * (x0 / truth - 1),
-                             100 * (x / truth - 1), bool(res.converged)))
-    return _df(rows, PARAMETER_COLUMNS)
-
-
-MODE_COLUMNS = ("trial", "model", "mode", "truth_freq_hz", "freq_error_pct",
-                "damping_error_pct", "mac")
+    return result.tables.frame("parameters")
 
 
 def modes(result):
     """One row per trial, model and truth mode (paired by MAC at the sensors,
     :func:`~truthbench.campaign.metrics.modal_accuracy`): ``model`` is ``"initial"`` or
     an updater's name; frequency and damping errors against the truth (%), MAC."""
-    rows = []
-    for tr in _ok(result):
-        for model, acc in tr.accuracy.items():
-            if model == "updated":  # the primary updater's, under its own name too
-                continue
-            for i, (f, fe, de, mac) in enumerate(zip(
-                    acc["truth_freq_hz"], acc["freq_error_pct"], acc["damping_error_pct"],
-                    acc["mac"], strict=True)):
-                rows.append((tr.trial, model, i, float(f), float(fe), float(de), float(mac)))
-    return _df(rows, MODE_COLUMNS)
-
-
-COVERAGE_COLUMNS = ("trial", "test", "parameter", "held_out", "identified", "truth",
-                    "lower", "upper", "truth_inside")
+    return result.tables.frame("modes")
 
 
 def coverage(result):
@@ -106,80 +228,32 @@ def coverage(result):
     ``zeta<k>``): the identified and the true value, the bound ``[lower, upper]`` (the
     initial model plus the mean error, -+ the k-sigma bound) and whether the truth lies
     inside it (a NaN truth, a mode not paired, counts as outside)."""
-    rows = []
-    names = [t.name for t in result.spec.tests]
-    for tr in _ok(result):
-        u = tr.uncertainty
-        if u is None:
-            continue
-        centre = u.theta_0 + u.mean
-        for j in range(u.theta_tests.shape[0]):
-            for i, p in enumerate(u.names):
-                rows.append((tr.trial, names[j], p, bool(u.holdout[j]),
-                             float(u.theta_tests[j, i]), float(u.theta_truth[j, i]),
-                             float(centre[i] - u.bound[i]), float(centre[i] + u.bound[i]),
-                             bool(u.inside[j, i])))
-    return _df(rows, COVERAGE_COLUMNS)
+    return result.tables.frame("coverage")
 
 
 def frf_error(result):
     """One row per trial and test: relative FRF error ``||G_D - G_M|| / ||G_D||`` over
     the test's update lines, of the initial and the updated model (%)."""
-    rows = []
-    for tr in _updated(result):
-        for rec, hi, hu, mask in zip(tr.tests, tr.H_initial, tr.H_updated, tr.update_mask,
-                                     strict=True):
-            keep = rec.freq_hz > 0
-            data = rec.H[mask]
-            norm = np.linalg.norm(data)
-            rows.append((tr.trial, rec.name,
-                         100 * np.linalg.norm(data - hi[mask[keep]]) / norm,
-                         100 * np.linalg.norm(data - hu[mask[keep]]) / norm))
-    return _df(rows, ("trial", "test", "frf_error_before_pct", "frf_error_after_pct"))
+    return result.tables.frame("frf_error")
 
 
 def frf_band(result):
     """One row per trial with an FRF band (:mod:`truthbench.campaign.frf_band_stage`):
     its tests, ``k_sigma``, lines, and the fraction of the initial and updated model
     inside it (NaN without an update)."""
-    rows = []
-    for tr in _ok(result):
-        b = tr.frf_band
-        if b is None:
-            continue
-        rows.append((tr.trial, ", ".join(b.tests), len(b.tests), b.band.k_sigma,
-                     int(b.line_mask.sum()), b.inside.get("initial", np.nan),
-                     b.inside.get("updated", np.nan)))
-    return _df(rows, ("trial", "tests", "n_tests", "k_sigma", "n_lines", "inside_initial",
-                      "inside_updated"))
+    return result.tables.frame("frf_band")
 
 
 def tests(result):
     """One row per trial and test: the excited band (Hz), the averages of the FRF
     estimate and the mean coherence over the band's lines (all pairs)."""
-    bands = {t.name: tuple(t.band_hz) for t in result.spec.tests}
-    rows = []
-    for tr in _ok(result):
-        for rec in tr.tests:
-            lo, hi = bands.get(rec.name, rec.frf.band_hz or (np.nan, np.nan))
-            sel = (rec.freq_hz >= lo) & (rec.freq_hz <= hi)
-            coh = (float(rec.coherence[sel].mean())
-                   if rec.coherence is not None and sel.any() else np.nan)
-            rows.append((tr.trial, rec.name, lo, hi, rec.frf.n_averages, coh))
-    return _df(rows, ("trial", "test", "band_low_hz", "band_high_hz", "n_averages",
-                      "mean_coherence_in_band"))
+    return result.tables.frame("tests")
 
 
 def stage_times(result):
     """One row per trial (failed ones too): wall-clock seconds of every stage
     (:data:`~truthbench.campaign.results.STAGES`) and their total."""
-    from truthbench.campaign.results import STAGES
-
-    rows = []
-    for tr in result.trials:
-        s = [float(tr.seconds.get(k, 0.0)) for k in STAGES]
-        rows.append((tr.trial, *s, float(sum(s))))
-    return _df(rows, ("trial", *STAGES, "total"))
+    return result.tables.frame("stage_times")
 
 
 _TABLES = {"parameters": parameters, "modes": modes, "coverage": coverage,
@@ -221,21 +295,20 @@ def modes_summary(result):
     """Per truth mode (trials' modes matched to 0.1 Hz): the initial and the updated
     (primary updater's) model's frequency error, damping error (%) and MAC against the
     truth, mean over trials; ``truth_freq_hz`` is the first trial's value."""
-    primary = (result.spec.update_methods() or [None])[0]
+    tables = result.tables
     cols = ["truth_freq_hz"] + [f"{s}_{c}" for s in ("initial", "updated")
                                 for c in ("freq_error_pct", "damping_error_pct", "mac")]
+    df = tables.frame("modes")
+    stage_of = {"initial": "initial", tables.primary: "updated"}
+    df = df[df["trial"].isin(tables.updated) & df["model"].isin(list(stage_of))]
     found: dict = {}
-    for tr in _updated(result):
-        for stage, model in (("initial", "initial"), ("updated", primary)):
-            acc = tr.accuracy.get(model)
-            if acc is None:
-                continue
-            for f, fe, de, mac in zip(acc["truth_freq_hz"], acc["freq_error_pct"],
-                                      acc["damping_error_pct"], acc["mac"], strict=True):
-                r = found.setdefault(round(float(f), 1), {"truth_freq_hz": float(f)})
-                r.setdefault(f"{stage}_freq_error_pct", []).append(fe)
-                r.setdefault(f"{stage}_damping_error_pct", []).append(de)
-                r.setdefault(f"{stage}_mac", []).append(mac)
+    for model, f, fe, de, mac in zip(df["model"], df["truth_freq_hz"], df["freq_error_pct"],
+                                     df["damping_error_pct"], df["mac"], strict=True):
+        stage = stage_of[model]
+        r = found.setdefault(round(float(f), 1), {"truth_freq_hz": float(f)})
+        r.setdefault(f"{stage}_freq_error_pct", []).append(fe)
+        r.setdefault(f"{stage}_damping_error_pct", []).append(de)
+        r.setdefault(f"{stage}_mac", []).append(mac)
     rows = []
     for key in sorted(found):
         r = found[key]
@@ -249,34 +322,30 @@ def methods_summary(result):
     the truth (%), mean absolute frequency error (%) and smallest MAC of the modes
     against the truth, over the updated trials, and the trials where the updater
     failed."""
+    tables = result.tables
     cols = ("method", "parameter_rms_error_pct", "mean_abs_freq_error_pct", "min_mac",
             "failed_trials")
-    ok = _updated(result)
-    if not ok:
+    if not tables.updated:
         return _df([], cols)
-    methods = list(dict.fromkeys(result.spec.update_methods()
-                                 + [m for t in ok for m in t.comparison]))
+    params = tables.frame("parameters")
+    modes = tables.frame("modes")
+    modes = modes[modes["trial"].isin(tables.updated)]
+    methods = list(dict.fromkeys(result.spec.update_methods() + list(tables.methods)))
     rows = []
     for label in ["none", *methods]:
-        perr, ferr, macs, fails = [], [], [], 0
-        for t in ok:
-            if label == "none":
-                names, vals, stage = t.update.names, t.update.initial, "initial"
-            else:
-                res = t.comparison.get(label)
-                if res is None or isinstance(res, str):
-                    fails += 1
-                    continue
-                names, vals, stage = res.names, res.values, label
-            truth = np.array([t.truth[n] for n in names])
-            perr.extend(100 * (np.asarray(vals) / truth - 1))
-            acc = t.accuracy.get(stage)
-            if acc:
-                ferr.extend(np.abs(acc["freq_error_pct"]))
-                macs.extend(acc["mac"])
-        rows.append((label, float(np.sqrt(np.mean(np.square(perr)))) if perr else np.nan,
-                     float(np.mean(ferr)) if ferr else np.nan,
-                     float(np.min(macs)) if macs else np.nan, fails))
+        if label == "none":
+            perr = params.loc[params["method"] == tables.primary, "error_before_pct"]
+            model, fails = "initial", 0
+        else:
+            part = params[params["method"] == label]
+            perr = part["error_after_pct"]
+            model, fails = label, len(tables.updated) - part["trial"].nunique()
+        acc = modes[modes["model"] == model]
+        ferr, macs = np.abs(acc["freq_error_pct"].to_numpy()), acc["mac"].to_numpy()
+        perr = perr.to_numpy()
+        rows.append((label, float(np.sqrt(np.mean(np.square(perr)))) if perr.size else np.nan,
+                     float(np.mean(ferr)) if ferr.size else np.nan,
+                     float(np.min(macs)) if macs.size else np.nan, fails))
     return _df(rows, cols)
 
 
@@ -287,10 +356,10 @@ def uncertainty_summary(result):
     inside it, of ``tests``."""
     cols = ("parameter", "initial_model", "mean_error", "std", "bound", "tests_inside",
             "truth_inside", "tests")
-    stages = [t.uncertainty for t in _ok(result) if t.uncertainty is not None]
+    stages = result.tables.stages
     if not stages:
         return _df([], cols)
-    u = stages[0]
+    u = stages[0][1]
     build = ~np.asarray(u.holdout, bool)
     centre = u.theta_0 + u.mean
     tests_inside = np.sum(np.abs(u.theta_tests[build] - centre) <= u.bound, axis=0)

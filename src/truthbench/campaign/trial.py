@@ -285,7 +285,25 @@ def run_trial(plan, trial: int, seed: int) -> TrialResult:
     running trials side by side.
     """
     with threadpool_limits(limits=1, user_api="blas"):
-        return with_frf_band(plan, _run_trial(plan, trial, seed))
+        return _kept(plan, with_frf_band(plan, _run_trial(plan, trial, seed)))
+
+
+def _kept(plan, tr: TrialResult) -> TrialResult:
+    """``tr`` as the campaign's ``[output] frfs`` keeps it: whole, or (after trial 0)
+    with its summary (:func:`~truthbench.campaign.summary.trial_summary`, taken from the
+    whole trial) and its FRFs, coherence and model FRFs cut to no line and no FRF
+    band."""
+    if plan.spec.output.frfs == "all" or tr.trial == 0:
+        return tr
+    from truthbench.campaign.summary import trial_summary
+
+    summary = trial_summary(plan.spec, tr)
+    tests = tuple(replace(rec, frf=rec.frf.lines(np.zeros(rec.freq_hz.size, bool)))
+                  for rec in tr.tests)
+    return replace(tr, tests=tests, H_initial=tuple(h[:0] for h in tr.H_initial),
+                   H_updated=tuple(h[:0] for h in tr.H_updated),
+                   update_mask=tuple(m[:0] for m in tr.update_mask), frf_band=None,
+                   summary=summary)
 
 
 def _run_trial(plan, trial: int, seed: int) -> TrialResult:

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 OUTPUT_NAMES = ("results.h5", "results.h5.part", "report.md", "report.html", "poles.png",
-                "frf_band.png", "calibration.png", "frf.png")
+                "frf_band.png", "calibration.png", "convergence.png", "frf.png")
 """Files of a run's folder (besides ``frf_<test>.png`` and ``trials/``) that ``--force``
 replaces."""
 

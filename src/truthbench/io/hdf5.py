@@ -14,6 +14,9 @@ Layout (SI units; FRFs complex (n_freq, n_out, n_in); strings UTF-8)::
                                   source, created_utc, n_trials
     /nominal               attrs: parameter -> value (unit in the name: E_pa, rho_kg_m3)
     /trials/0000           attrs: status ("ok" | "failed"), error
+        summary            dataset: a JSON string, what the tables and the report
+                           reduce over (written by the campaign room:
+                           truthbench.campaign.summary; absent in older files)
         truth              attrs: parameter -> value
         seconds            attrs: stage -> wall-clock seconds, s
         tests/<name>       datasets freq_hz, H, coherence, u, y (u, y have 0 samples for
@@ -143,7 +146,7 @@ def _now() -> str:
 
 # ---- writing -----------------------------------------------------------------------
 def write_results(path: str | Path, head: Mapping, nominal: Mapping, trials,
-                  units: Mapping[str, str]) -> Path:
+                  units: Mapping[str, str], summary=None) -> Path:
     """Write a run's results (layout in the module docstring); the file appears complete
     or not at all.
 
@@ -158,6 +161,9 @@ def write_results(path: str | Path, head: Mapping, nominal: Mapping, trials,
         Read through their attributes (:class:`~truthbench.campaign.results.TrialResult`).
     units : mapping of str -> str
         The unit of every update parameter (``""`` for one not listed).
+    summary : callable, optional
+        ``summary(trial) -> str``: a trial's summary as JSON text (the ``summary``
+        dataset).
     """
     import h5py
 
@@ -168,21 +174,23 @@ def write_results(path: str | Path, head: Mapping, nominal: Mapping, trials,
         _write_header(f, head, nominal, len(trials))
         group = f.create_group("trials")
         for tr in trials:
-            _write_trial(group, tr, units)
+            _write_trial(group, tr, units, None if summary is None else summary(tr))
     tmp.replace(path)
     return path
 
 
-def results_image(head: Mapping, nominal: Mapping, trial, units: Mapping[str, str]) -> bytes:
+def results_image(head: Mapping, nominal: Mapping, trial, units: Mapping[str, str],
+                  summary: str | None = None) -> bytes:
     """One trial as the bytes of a results file holding that trial alone (``n_trials``
-    = 1; arguments as :func:`write_results`), built in memory: a worker makes it, the
+    = 1; arguments as :func:`write_results`, ``summary`` the trial's summary as JSON
+    text), built in memory: a worker makes it, the
     process that stores it only writes bytes (so a full disk is an ``OSError`` of an
     ordinary write, never an error inside HDF5)."""
     import h5py
 
     with h5py.File(f"trial-{trial.trial}.h5", "w", driver="core", backing_store=False) as f:
         _write_header(f, head, nominal, 1)
-        _write_trial(f.create_group("trials"), trial, units)
+        _write_trial(f.create_group("trials"), trial, units, summary)
         f.flush()
         return bytes(f.id.get_file_image())
 
@@ -226,11 +234,15 @@ _ACCURACY_UNITS = {"truth_freq_hz": "Hz", "freq_error_pct": "%", "damping_error_
                    "mac": "-", "n_unpaired_truth": "-"}
 
 
-def _write_trial(trials, tr, units: Mapping[str, str]) -> None:
+def _write_trial(trials, tr, units: Mapping[str, str], summary: str | None = None) -> None:
     """One trial as ``trials/<NNNN>``."""
     g = trials.create_group(trial_key(tr.trial))
     g.attrs["status"] = "failed" if tr.error else "ok"
     g.attrs["error"] = tr.error or ""
+    if summary is not None:
+        import h5py
+
+        g.create_dataset("summary", data=summary, dtype=h5py.string_dtype("utf-8"))
     _attrs(g.create_group("truth"), tr.truth)
     _attrs(g.create_group("seconds"), tr.seconds)
     tests = g.create_group("tests")
@@ -382,6 +394,24 @@ def _strs(values) -> tuple[str, ...]:
     return tuple(v.decode() if isinstance(v, bytes) else str(v) for v in np.ravel(values))
 
 
+METADATA_CACHE_BYTES = 2 << 20
+"""Largest metadata cache of a results file truthbench opens (HDF5's default initial
+size). HDF5 lets a file's cache grow to 32 MB, which a pass over ten thousand trial
+groups fills, and the library's memory around it grew by 175 MB; reading them in order
+gains nothing from a larger cache (the same 3.3 s)."""
+
+
+def limit_metadata_cache(f) -> None:
+    """Cap the metadata cache of an open h5py file at :data:`METADATA_CACHE_BYTES`, so
+    that a pass over every trial of a large results file keeps its memory flat."""
+    c = f.id.get_mdc_config()
+    c.set_initial_size = True
+    c.initial_size = min(c.initial_size, METADATA_CACHE_BYTES)
+    c.min_size = min(c.min_size, METADATA_CACHE_BYTES)
+    c.max_size = METADATA_CACHE_BYTES
+    f.id.set_mdc_config(c)
+
+
 def open_results(path: str | Path):
     """The open h5py file of a truthbench results (or single-test) file.
 
@@ -404,6 +434,7 @@ def open_results(path: str | Path):
         f.close()
         raise DataFormatError(f"{path}: not a truthbench results file (attribute "
                               f"'format' is {_plain(fmt)!r}; expected {FORMAT!r})")
+    limit_metadata_cache(f)
     return f
 
 
@@ -472,9 +503,33 @@ def read_body(f, attrs: Mapping, legacy: Mapping | None = None) -> dict:
                                                                           legacy),
                  "truth": {}}
         return {"nominal": None, "trials": [trial]}
-    trials = [_read_trial(f["trials"][k], order, legacy)
-              for k in sorted(f["trials"], key=_trial_order)]
-    return {"nominal": _attr_dict(f["nominal"]), "trials": trials}
+    trials = [_read_trial(f["trials"][k], order, legacy) for k in trial_keys(f)]
+    return {"nominal": read_nominal(f), "trials": trials}
+
+
+def read_nominal(f) -> dict:
+    """The nominal parameters (``/nominal``) of an open results file."""
+    return _attr_dict(f["nominal"])
+
+
+def trial_keys(f) -> list[str]:
+    """The group names under ``/trials`` of an open results file, in trial order."""
+    return sorted(f["trials"], key=_trial_order)
+
+
+def read_trial(f, key: str, attrs: Mapping, legacy: Mapping | None = None) -> dict:
+    """One trial (group ``/trials/<key>``) of an open results file as plain data, as an
+    entry of :func:`read_body`'s ``trials`` (with ``summary``, the JSON text or None)."""
+    order = {t.get("name"): j for j, t in enumerate(attrs["spec"].get("tests", []))}
+    return _read_trial(f["trials"][key], order, legacy or {})
+
+
+def read_summary(f, key: str) -> tuple[str | None, dict]:
+    """The ``summary`` (JSON text; None for a file written before trials had one) and the
+    stage ``seconds`` of trial ``key`` of an open results file."""
+    g = f["trials"][key]
+    seconds = {k: float(v) for k, v in _attr_dict(g["seconds"]).items()}
+    return (_plain(g["summary"][()]) if "summary" in g else None), seconds
 
 
 def read_results(path: str | Path) -> dict:
@@ -627,7 +682,8 @@ def _read_trial(g, order, legacy) -> dict:
         tests = _read_tests(g["tests"], order, legacy)
         out = {"trial": int(g.name.rsplit("/", 1)[-1]), "tests": tests,
                "truth": _attr_dict(g["truth"]), "error": str(a.get("error", "")) or None,
-               "seconds": {k: float(v) for k, v in _attr_dict(g["seconds"]).items()}}
+               "seconds": {k: float(v) for k, v in _attr_dict(g["seconds"]).items()},
+               "summary": _plain(g["summary"][()]) if "summary" in g else None}
         if "update" in g:
             out["update"] = _read_update(g["update"])
             out["comparison"] = {

@@ -11,8 +11,10 @@ MAC to 4 decimals, parameter values with an SI prefix on their unit).
 Figures written beside ``report.md``: ``frf_<test>.png`` (one per test of the first
 completed trial: data against the initial and updated model, magnitude, phase and
 coherence per output), ``poles.png`` (Figure 10.6, one panel per mode),
-``frf_band.png`` (the FRF-domain band) and ``calibration.png`` (held-out coverage
-against k), the last three when the campaign has what they show.
+``frf_band.png`` (the FRF-domain band), ``calibration.png`` (held-out coverage
+against k) and ``convergence.png`` (the coverage and error statistics against the number
+of trials, from :data:`CONVERGENCE_MIN_TRIALS` trials), the last four when the campaign
+has what they show.
 """
 
 from __future__ import annotations
@@ -63,8 +65,8 @@ def _input_unit(test) -> str:
 # ---- sections ------------------------------------------------------------------------
 def _header(result, results_path) -> list[str]:
     spec = result.spec
-    n_failed = len(result.failed)
-    n_updated = sum(1 for t in result.trials if not t.error and t.update is not None)
+    n_failed = len(result.tables.failed)
+    n_updated = len(result.tables.updated)
     done = (f"{n_updated} updated" if spec.update_methods()
             else f"{len(result.trials) - n_failed} completed")
     written = result.created_utc or datetime.now(UTC).isoformat(timespec="seconds")
@@ -138,7 +140,7 @@ def parameter_text(result) -> str:
 
 
 def _update_details(result) -> list[str]:
-    trial = next(t for t in result.trials if not t.error and t.update is not None)
+    trial = result.trial(result.tables.first["updated"])
     u = trial.update
     sv = ", ".join(fmt.sig(s, 3) for s in u.singular_values)
     text = (f"Trial {trial.trial}, `{u.method}`: {u.n_iterations} iterations, "
@@ -159,7 +161,7 @@ def _parameters_section(result) -> list[str]:
         return []
     spec = result.spec
     methods = spec.update_methods()
-    n = sum(1 for t in result.trials if not t.error and t.update is not None)
+    n = len(result.tables.updated)
     over = ("" if n == 1 else f" Values and errors are means over {n} trials (the bias); "
                               f"the RMS error is over trials.")
     lines = ["## Parameter errors before and after updating", "",
@@ -268,7 +270,7 @@ def _uncertainty_section(result, out: Path) -> list[str]:
         if cov.calibration is not None:
             name = _save(cov.plot(), out / "calibration.png")
             lines += [f"![Calibration of the bound: held-out coverage against k]({name})", ""]
-    trial = next(t for t in result.trials if not t.error and t.uncertainty is not None)
+    trial = result.trial(result.tables.first["uncertainty"])
     name = _save(result.plot("poles", trial=trial.trial), out / "poles.png")
     held = "; held-out tests filled" if np.any(trial.uncertainty.holdout) else ""
     lines += [f"Poles of trial {trial.trial}'s tests with the {k:g}-sigma bound, one panel "
@@ -278,15 +280,15 @@ def _uncertainty_section(result, out: Path) -> list[str]:
 
 
 def _frf_band_section(result, out: Path) -> list[str]:
-    trial = next((t for t in result.trials if not t.error and t.frf_band is not None), None)
-    if trial is None:
+    first = result.tables.first["frf_band"]
+    if first is None:
         return []
-    b = trial.frf_band
+    b = result.tables.band
     lines = ["## FRF-domain uncertainty model", "",
-             f"Mean FRF and {b.band.k_sigma:g}-sigma band (covariance of real and imaginary "
-             f"parts, line by line) over trial {trial.trial}'s tests {_names(b.tests)}, "
+             f"Mean FRF and {b['k_sigma']:g}-sigma band (covariance of real and imaginary "
+             f"parts, line by line) over trial {first}'s tests {_names(b['tests'])}, "
              f"which share input, outputs and lines."]
-    for which, frac in b.inside.items():
+    for which, frac in b["inside"].items():
         lines.append(f"The {which} model lies inside the band at {100 * frac:.1f} % of the "
                      f"lines and pairs.")
     s = result.summary("frf_band")
@@ -295,8 +297,14 @@ def _frf_band_section(result, out: Path) -> list[str]:
         lines.append(f"Over {n} trials the mean fractions are "
                      f"{100 * s['inside_initial'].iloc[0]:.1f} % (initial) and "
                      f"{100 * s['inside_updated'].iloc[0]:.1f} % (updated).")
-    name = _save(result.plot("frf_band", trial=trial.trial), out / "frf_band.png")
+    if result.trial(first).frf_band is None:
+        return lines + [_KEPT_NOTE, ""]
+    name = _save(result.plot("frf_band", trial=first), out / "frf_band.png")
     return lines + ["", f"![FRF band]({name})", ""]
+
+
+_KEPT_NOTE = ("(The figure needs the trial's FRFs, which the campaign keeps for trial 0 only: "
+              "`[output] frfs`.)")
 
 
 def _frf_error_section(result) -> list[str]:
@@ -312,12 +320,52 @@ def _frf_error_section(result) -> list[str]:
             fmt.markdown(table)]
 
 
+CONVERGENCE_MIN_TRIALS = 20
+"""Trials (with an uncertainty stage or an update) from which the report shows the
+convergence of its statistics with the trial count."""
+
+
+def _convergence_section(result, out: Path) -> list[str]:
+    tables = result.tables
+    if max(len(tables.stages), len(tables.updated)) < CONVERGENCE_MIN_TRIALS:
+        return []
+    from truthbench.campaign.convergence import convergence
+
+    c = convergence(result)
+    level = f"{100 * c.confidence:g} %"
+    lines = ["## Convergence with the number of trials", "",
+             f"Each statistic over the first n trials, for n up to all of them, with its "
+             f"{level} interval: a curve that has flattened inside its band (which narrows "
+             f"as 1/sqrt(n)) has enough trials."]
+    if c.coverage is not None:
+        p, lo, hi = c.coverage[-1]
+        expect = "" if c.expected is None else f"; normal theory {c.expected:.3f}"
+        lines.append(f"Coverage of the {c.coverage_of} truths after {c.trials[-1]} trials: "
+                     f"{p:.3f} ({level} interval {lo:.3f}-{hi:.3f}{expect}).")
+        if c.modes:
+            last = c.identification[-1]
+            lines.append("Mean identified frequency error against the truth: "
+                         + "; ".join(f"{name} {fmt.sig(last[0, k])} % "
+                                     f"({fmt.sig(last[1, k])} to {fmt.sig(last[2, k])})"
+                                     for k, name in enumerate(c.modes)) + ".")
+    if c.parameter_error is not None:
+        last = c.parameter_error[-1]
+        lines.append(f"Parameter error after `{result.primary_method}` over "
+                     f"{c.parameter_trials[-1]} trials, mean (interval) and RMS: "
+                     + "; ".join(f"{name} {fmt.sig(last[0, k])} % ({fmt.sig(last[1, k])} to "
+                                 f"{fmt.sig(last[2, k])}), RMS "
+                                 f"{fmt.sig(c.parameter_rms[-1, k])} %"
+                                 for k, name in enumerate(c.parameters)) + ".")
+    name = _save(result.plot("convergence"), out / "convergence.png")
+    return lines + ["", f"![Convergence with the number of trials]({name})", ""]
+
+
 def _failed_section(result) -> list[str]:
-    if not result.failed:
+    failed = result.tables.failed
+    if not failed:
         return []
     return (["## Failed trials", ""]
-            + [f"- trial {t.trial}: {t.error.splitlines()[0]}" for t in result.failed]
-            + [""])
+            + [f"- trial {t}: {error.splitlines()[0]}" for t, error in failed] + [""])
 
 
 def _times_section(result) -> list[str]:
@@ -331,10 +379,13 @@ def _times_section(result) -> list[str]:
 
 
 def _frf_figures(result, out: Path) -> list[str]:
-    ok = [t for t in result.trials if not t.error] or list(result.trials)
-    if not ok or not ok[0].tests:
+    if not len(result.trials):
         return []
-    trial = ok[0]
+    trial = result.trial()  # the first that did not fail, else the first
+    if not trial.tests:
+        return []
+    if not trial.tests[0].freq_hz.size:
+        return ["## FRFs of the tests", "", _KEPT_NOTE, ""]
     what = ("data against the initial and updated model"
             if trial.H_initial else "the measured FRFs")
     lines = ["## FRFs of the tests", "",
@@ -379,6 +430,7 @@ def write_report(result, out_dir: str | Path, *, results_path: str | Path | None
     lines += _uncertainty_section(result, out)
     lines += _frf_band_section(result, out)
     lines += _frf_error_section(result)
+    lines += _convergence_section(result, out)
     lines += _failed_section(result)
     lines += _times_section(result)
     lines += _frf_figures(result, out)

@@ -442,9 +442,17 @@ def finite_difference_update(
             if c_trial <= costs[-1]:
                 mu = mu / 10 if mu > 1e-12 else 0.0
                 break
+            if np.max(np.abs(dx)) < tolerance:
+                # even a step below the tolerance raises the cost: a minimum to working
+                # precision (damping it further only shrinks it, until the cost stops
+                # changing at its rounding)
+                converged = True
+                break
             mu = max(10 * mu, 1e-6)
         else:
             break  # no decrease possible: at a minimum to working precision
+        if converged:
+            break
         theta, G = trial, G_trial
         history.append(np.array([theta[n] for n in names]))
         costs.append(c_trial)

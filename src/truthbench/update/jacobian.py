@@ -62,7 +62,11 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from truthbench.model import QUANTITIES
-from truthbench.update.macroelements import Macroelement, macroelement_matrices
+from truthbench.update.macroelements import (
+    Macroelement,
+    macroelement_matrices,
+    system_matrices,
+)
 
 AFFINE_RTOL = 1e-9
 """Largest relative Frobenius mismatch between the matrices built at ``theta`` and their
@@ -91,23 +95,30 @@ class MacroelementCache:
     Parameters
     ----------
     build : callable
-        ``build(theta) -> StructuralModel`` (the predictor's model at ``theta``).
+        ``build(theta)``: the model at ``theta`` (a
+        :class:`~truthbench.model.StructuralModel`, or ``(M, K)``, ``(M, C, K)``:
+        :func:`~truthbench.update.macroelements.system_matrices`).
     names : sequence of str
         The plant parameters.
+    warn : bool
+        Warn of nonlinear parameters the first time the macroelements are taken
+        (:func:`~truthbench.update.macroelements.macroelement_matrices`).
     """
 
-    def __init__(self, build, names: Sequence[str]):
+    def __init__(self, build, names: Sequence[str], *, warn: bool = False):
         self.build = build
         self.names = tuple(names)
+        self.warn = bool(warn)
         self._ref = None  # (theta values, (M, C, K, zeta), macroelements)
         self.relinearisations = 0
 
     def _take(self, theta: Mapping[str, float]):
         try:
-            macros = macroelement_matrices(self.build, theta, self.names, warn=False)
+            macros = macroelement_matrices(self.build, theta, self.names,
+                                           warn=self.warn and not self.relinearisations)
         except ValueError as exc:  # a zero value, a changing DOF count
             raise JacobianUnavailable(str(exc)) from None
-        model = self.build(theta)
+        model = system_matrices(self.build, theta)
         base = (model.M, model.C, model.K, np.asarray(model.modal_damping_ratio, float))
         vals = np.array([float(theta[n]) for n in self.names])
         self._ref = (vals, base, macros)
@@ -115,7 +126,8 @@ class MacroelementCache:
         return macros
 
     def at(self, theta: Mapping[str, float], model) -> list[Macroelement]:
-        """The macroelements at ``theta`` (``model``: the model built at ``theta``)."""
+        """The macroelements at ``theta`` (``model``: the model built at ``theta``, with
+        ``M``, ``C``, ``K`` and ``modal_damping_ratio``)."""
         if self._ref is None:
             return self._take(theta)
         vals0, base, macros = self._ref

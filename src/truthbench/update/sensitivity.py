@@ -88,10 +88,10 @@ from truthbench.model import Modes, complex_modes, solve_modes
 from truthbench.settings import setting
 from truthbench.update.finite_difference import IterationSettings, UpdateResult
 from truthbench.update.identifiability import check_identifiable
+from truthbench.update.jacobian import JacobianUnavailable, MacroelementCache
 from truthbench.update.macroelements import (
     BuildSystem,
     Macroelement,
-    macroelement_matrices,
     system_matrices,
 )
 
@@ -543,8 +543,10 @@ class _State:
     damping: dict
 
 
-def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
-    """Solve, pair, and stack the weighted data and sensitivities at ``theta``."""
+def _evaluate(build_mk, theta, names, measured, opts, first, warned, macros_at) -> _State:
+    """Solve, pair, and stack the weighted data and sensitivities at ``theta``
+    (``macros_at``: a :class:`~truthbench.update.jacobian.MacroelementCache` of
+    ``names``)."""
     sysm = system_matrices(build_mk, theta)
     M, K = sysm.M, sysm.K
     n = M.shape[0]
@@ -553,7 +555,10 @@ def _evaluate(build_mk, theta, names, measured, opts, first, warned) -> _State:
             raise ValueError(f"measured set {s}: 'dof_index' reaches {mm.dof_index.max()}, "
                              f"but the model has {n} DOFs (0..{n - 1})")
     modes = solve_modes(M, K, opts["n_model_modes"])
-    macros = macroelement_matrices(build_mk, theta, names, warn=first)
+    try:
+        macros = macros_at.at(theta, sysm)
+    except JacobianUnavailable as exc:  # the message of macroelement_matrices
+        raise ValueError(str(exc)) from None
     Phi = modes.shapes
     lam = modes.omega_rad_s ** 2
     rigid = np.asarray(modes.rigid, dtype=bool)
@@ -910,8 +915,11 @@ def sensitivity_update(
     alpha = None
     state = None
     nonlinear: tuple[str, ...] = ()
+    # the macroelements are taken once and moved along theta while the parameters act
+    # linearly (checked against the built matrices at every iteration)
+    macros_at = MacroelementCache(build_mk, names, warn=True)
     for it in range(int(max_iterations) + 1):
-        state = _evaluate(build_mk, theta, names, measured, opts, it == 0, warned)
+        state = _evaluate(build_mk, theta, names, measured, opts, it == 0, warned, macros_at)
         if it == 0:
             nonlinear = tuple(me.name for me in state.macros if not me.linear)
         costs.append(state.cost)
