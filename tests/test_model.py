@@ -275,3 +275,67 @@ def test_modal_table_hub_beam_cantilever_modes_are_not_suspension_modes():
     # part strains the clamp (Rayleigh ratio far above 2): it is a bending mode
     assert not any(r["shape"].startswith("suspension") for r in rows)
     assert rows[1]["shape"] == "bending z, 0 nodes"
+
+
+def _damped_beam():
+    """The free-free tube with a grounded dashpot, a joint dashpot between two
+    rotations and suspension damping; driven and read in the vertical plane."""
+    from truthbench.plants.base import StructuralAdditions
+
+    plant = make_plant("free_free_beam", n_elements=20)
+    add = StructuralAdditions((("dashpot", 6 * 7 + 2, -1, 4.0),
+                               ("dashpot", 6 * 12 + 4, 6 * 13 + 4, 0.3)))
+    return plant.build({"suspension_damping_n_s_m": 0.5, "modal_damping_ratio": 0.01},
+                       [Actuator("end_a", "z")],
+                       [Sensor("quarter", "z"), Sensor("mid", "z", "velocity")], add)
+
+
+def test_the_coupled_blocks_of_a_straight_beam_are_its_planes_and_motions():
+    """A straight beam along x: axial (x), torsion (rx), bending in x-z (z, ry) and in
+    x-y (y, rz) are four uncoupled blocks of DOFs; a dashpot between two rotations keeps
+    them apart, a spring coupling z to y joins two."""
+    from truthbench.model import coupled_blocks
+
+    model = _damped_beam()
+    blocks = coupled_blocks(model.M, model.K, model.C)
+    kinds = [{lab.rsplit(".", 1)[1] for lab in np.asarray(model.dof_labels)[b]}
+             for b in blocks]
+    assert sorted(map(sorted, kinds)) == [["rx"], ["ry", "z"], ["rz", "y"], ["x"]]
+    assert sum(b.size for b in blocks) == model.n_dofs
+    link = sp.lil_matrix(model.K.shape)
+    z, y = model.dof_labels.index("n5.z"), model.dof_labels.index("n5.y")
+    link[z, y] = link[y, z] = 1.0
+    assert len(coupled_blocks(model.M, model.K + link.tocsr(), model.C)) == 3
+
+
+def test_block_modes_and_woodbury_damping_give_the_direct_solve():
+    """The modes of the block the channels are coupled to, with the physical dashpots
+    added to the modal solution by the Woodbury identity, give the FRF of the direct
+    solve of ``(K + s (C + C_modal) + s^2 M) x = B`` (every mode's modal damping), to
+    the eigensolver's round-off (eps * lambda_max / lambda_min of the block), and the
+    same FRF as every mode with complex modes."""
+
+    from truthbench.model import frf, solve_block_modes
+
+    model = _damped_beam()
+    dofs = np.flatnonzero(np.any(model.B != 0, axis=1) | np.any(model.C_out != 0, axis=0))
+    block = solve_block_modes(model.M, model.K, dofs, model.C)
+    full = model.modes()
+    assert block.n_modes == 2 * 21 and full.n_modes == 6 * 21  # z and ry of 21 nodes
+    f = np.linspace(0.5, 400.0, 200)
+    H_block = frf(model, f, block, low_rank_damping=True)
+    H_full = frf(model, f, full)
+    M, K, C = model.M.toarray(), model.K.toarray(), model.C.toarray()
+    Phi = full.shapes
+    c_modal = M @ Phi @ np.diag(np.where(full.rigid, 0.0, 0.02 * full.omega_rad_s)) \
+        @ Phi.T @ M
+    power = np.array([2, 1])
+    ref = np.array([(model.C_out @ np.linalg.solve(K + s * (C + c_modal) + s * s * M, model.B))
+                    * (s ** power)[:, None] for s in 2j * np.pi * f])
+    lam = block.omega_rad_s ** 2
+    tol = np.finfo(float).eps * lam.max() / lam[~block.rigid].min()
+    scale = np.abs(ref).max(axis=0)
+    assert np.all(np.abs(H_block - ref).max(axis=0) / scale < tol)
+    assert np.all(np.abs(H_block - H_full).max(axis=0) / scale < 10 * tol)
+    # without low_rank_damping the block's own complex modes give it too
+    assert np.all(np.abs(frf(model, f, block) - ref).max(axis=0) / scale < tol)

@@ -67,6 +67,10 @@ class Candidate:
         friction, ``sqrt(2 / pi) / sigma_v`` with ``sigma_v`` the RMS velocity at the
         friction's DOF in that test (statistical linearisation for a Gaussian response:
         ``E[F_c sign(v) v] / E[v^2]``), set by :func:`bind_levels`.
+    parts : tuple of (station, weight), optional
+        A joint between two element centres (:func:`hinge_parts`): its flexibility
+        shared by the two elements, the one nearer the point taking more. Its fitted
+        values are those of one element's joint of the same flexibility.
     """
 
     effect: str
@@ -75,6 +79,7 @@ class Candidate:
     fitted: tuple[FitParam, ...]
     node: int | None = None
     levels: tuple[tuple[str, float], ...] | None = None
+    parts: tuple[tuple[str, float], ...] | None = None
 
     @property
     def spec(self) -> EffectSpec:
@@ -97,6 +102,12 @@ class Candidate:
                 f"{self.label}/{test}", dashpot, names,
                 lambda f, k=k: {"damping_n_s_m": k * f["force_n"]}, init, (test,),
                 self.label) for test, k in self.levels)
+        if self.parts is not None:  # a joint between element centres
+            return tuple(EffectTerm(
+                f"{self.label}/{station}", parse_effect(
+                    {"name": self.effect, **self.options, "station": station}, self.label,
+                    "diagnosis"), names, lambda f, w=w: _hinge_share(f, w), init, None,
+                self.label) for station, w in self.parts)
         form = EFFECTS[self.effect].diagnosis
         return (EffectTerm(self.label, self.spec, names, form.to_values, init),)
 
@@ -111,7 +122,37 @@ class Candidate:
         """The effect's own parameter values for fitted values (by own name)."""
         if self.effect == "coulomb_friction":
             return {"force_n": float(fitted["force_n"])}
+        if self.parts is not None:  # one element's joint of the same flexibility
+            return {k: float(v) for k, v in fitted.items()}
         return self.terms()[0].values({f"{self.label}.{k}": v for k, v in fitted.items()})
+
+
+def _hinge_share(fitted: Mapping[str, float], weight: float) -> dict[str, float]:
+    """One element's part of a joint between element centres: ``weight`` of the joint's
+    flexibility (``loss / (1 - loss)`` per element length) and of its dashpot."""
+    loss = min(float(fitted["stiffness_loss"]), 0.999)
+    g = weight * max(loss, 0.0) / (1.0 - loss)
+    return {"stiffness_loss": g / (1.0 + g),
+            "damping_n_m_s_rad": weight * float(fitted["damping_n_m_s_rad"])}
+
+
+def hinge_parts(fraction: float, n_elements: int) -> tuple[tuple[str, float], ...]:
+    """The elements a joint at ``fraction`` of the element count shares its flexibility
+    between: the two whose centres bracket it, weighted linearly by the distance to
+    each centre (one element when the point is at its centre or past the last).
+
+    Returns
+    -------
+    tuple of (station, weight)
+        ``n<k>`` (the station where element k begins) and its share, summing to 1.
+    """
+    pos = fraction * n_elements - 0.5  # in element centres
+    e = int(np.floor(pos))
+    w = pos - e
+    parts = [(e, 1.0 - w), (e + 1, w)]
+    parts = [(k, x) for k, x in parts if 0 <= k < n_elements and x > 1e-9]
+    total = sum(x for _, x in parts)
+    return tuple((f"n{k}", x / total) for k, x in parts)
 
 
 def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,

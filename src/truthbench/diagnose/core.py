@@ -57,6 +57,7 @@ from truthbench.diagnose.candidates import (
     Candidate,
     bind_levels,
     catalogue,
+    hinge_parts,
     references,
     with_node_stations,
 )
@@ -706,6 +707,8 @@ class _Diagnosis:
         eight between the best and its neighbours), and the best point refitted. The
         refit replaces the chosen one when it explains the data better."""
         c = chosen.candidate
+        if c.effect == "joint" and c.node is not None and c.parts is None:
+            return self.refine_hinge(problem, current, accepted, chosen, n, step, tests)
         if c.effect not in POINT_EFFECTS or c.node is None:
             return chosen
         plant = problem.plant
@@ -772,6 +775,54 @@ class _Diagnosis:
             m = quick.candidate
             self.tried.append(Tried(step, m.label, m.effect, m.options, float("nan"),
                                     status=f"full refit: {refit_error(exc)}"))
+            return chosen
+        return full if full.physical and full.delta_bic > chosen.delta_bic else chosen
+
+    def refine_hinge(self, problem, current, accepted, chosen: Refit, n, step, tests
+                     ) -> Refit:
+        """A joint's place searched between element centres: its flexibility shared by
+        the two elements either side of a point (:func:`~.candidates.hinge_parts`), the
+        point found by a parabola through quick refits at the element's centre and its
+        two nodes. A joint is a local flexibility; a model's element is where its mesh
+        puts one, and a joint of the hardware straddles two elements as often as not.
+        The refit replaces the chosen one when it explains the data better."""
+        c = chosen.candidate
+        plant = problem.plant
+        N = plant.n_elements
+        own = fitted_own(c, chosen.fit.theta)
+        start_theta = {k: v for k, v in chosen.fit.theta.items() if k in current.names}
+
+        def quick_at(fr):
+            name = f"x{fr:.6f}"
+            moved_plant = replace(plant, stations={**plant.stations, name: float(fr)})
+            moved = replace(c, options={**c.options, "station": name},
+                            label=f"{c.effect}@{name}.{c.options['direction']}",
+                            node=int(np.clip(np.floor(fr * N), 0, N - 1)),
+                            parts=hinge_parts(fr, N))
+            pm = replace(problem, plant=moved_plant)
+            return pm, refit(pm, current, accepted, moved, float("nan"),
+                             np.array([own[p.name] for p in c.fitted]), self.refs, n, step,
+                             self.tried, declared_start={**current.theta, **start_theta})
+
+        points = [(fr, quick_at(fr)) for fr in (np.array([0.0, 0.5, 1.0]) + c.node) / N
+                  if 0 <= fr <= 1]
+        good = [(fr, q) for fr, (_, q) in points if q is not None and q.physical]
+        if len(good) < 3:
+            return chosen
+        x = np.array([fr for fr, _ in good])
+        y = np.array([q.fit.chi2 for _, q in good])
+        a, b, _ = np.polyfit(x - x[1], y, 2)
+        if not a > 0:
+            return chosen
+        fraction = float(np.clip(x[1] - b / (2 * a), x[0], x[2]))
+        if abs(fraction * N - (c.node + 0.5)) < 0.05:
+            return chosen  # at the element's centre: the element's own joint
+        pm, quick = quick_at(fraction)
+        if quick is None or not quick.physical:
+            return chosen
+        try:
+            full = full_refit(pm, current, accepted, quick, self.refs, n, tests)
+        except REFIT_ERRORS:
             return chosen
         return full if full.physical and full.delta_bic > chosen.delta_bic else chosen
 
