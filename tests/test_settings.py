@@ -16,9 +16,10 @@ import pytest
 from pydantic import BaseModel, ValidationError
 
 from truthbench.campaign.model_file import parse_model
-from truthbench.campaign.spec import IdentifySpec, UpdateSpec, parse_campaign
+from truthbench.campaign.spec import DiagnoseSpec, IdentifySpec, UpdateSpec, parse_campaign
 from truthbench.cli import build_parser, main
 from truthbench.cli._args import declared_setting
+from truthbench.diagnose import DiagnoseSettings
 from truthbench.errors import CampaignError
 from truthbench.identify import (
     IDENTIFIERS,
@@ -51,12 +52,15 @@ QUICKSTART = tomllib.loads((ROOT / "campaigns" / "quickstart.toml").read_text())
 #: Where each configurable class's settings live in the files, and the functions that
 #: run it (their keyword defaults must be the class's).
 TABLES = {**{cls: ("update", UpdateSpec) for cls in UPDATERS.values()},
-          PLSCFIdentifier: ("identify", IdentifySpec)}
+          PLSCFIdentifier: ("identify", IdentifySpec),
+          DiagnoseSettings: ("diagnose", DiagnoseSpec)}
 FUNCTIONS = {"finite_difference": [finite_difference_update],
              "sensitivity": [sensitivity_update],
              "plscf": [identify_plscf, identify_frfs, identify_file],
-             "peak": [peak_picking, identify_frfs, identify_file]}
-CLASSES = [*UPDATERS.values(), *IDENTIFIERS.values()]
+             "peak": [peak_picking, identify_frfs, identify_file],
+             "diagnose": []}
+REGISTERED = [*UPDATERS.values(), *IDENTIFIERS.values()]
+CLASSES = [*REGISTERED, DiagnoseSettings]
 DECLARED = [(cls, name, s) for cls in CLASSES for name, s in declared(cls).items()]
 IDS = [f"{cls.__name__}.{name}" for cls, name, _ in DECLARED]
 
@@ -69,8 +73,8 @@ def _cli_actions():
 
 
 def test_every_registered_class_declares_its_settings():
-    assert set(FUNCTIONS) == set(UPDATERS) | set(IDENTIFIERS)
-    for cls in CLASSES:
+    assert set(FUNCTIONS) == set(UPDATERS) | set(IDENTIFIERS) | {"diagnose"}
+    for cls in REGISTERED:
         assert issubclass(cls, Configurable) and declared(cls), cls
         for f in inspect.signature(cls).parameters.values():  # only settings in __init__
             assert f.kind is f.KEYWORD_ONLY and f.name in declared(cls), (cls, f.name)
@@ -90,11 +94,15 @@ def test_the_same_default_everywhere(cls, name, s):
         assert model.model_fields[name].default == s.default
         spec = parse_campaign(QUICKSTART)
         assert getattr(getattr(spec, table), name) == s.default
-        if table == "update":
+        if table in ("update", "diagnose"):
             model_spec = parse_model({"plant": QUICKSTART["plant"]})
-            assert getattr(model_spec.update, name) == s.default
+            assert getattr(getattr(model_spec, table), name) == s.default
+        if table == "update":
             # the table reaches the updater: its default, or the file's value
             assert getattr(make_updater(cls.name, spec.update.model_dump()), name) == s.default
+        if table == "diagnose":  # what the command passes to diagnose()
+            assert getattr(DiagnoseSettings(**model_spec.diagnose.settings()), name) \
+                == s.default
     for command, action in _cli_actions():
         if getattr(action, "setting", None) == f"{cls.__module__}:{cls.__name__}.{name}":
             # not given, the option is None, which the library reads as the default
@@ -116,6 +124,9 @@ def test_every_cli_option_named_like_a_declared_setting_is_the_declared_one():
              and a.option_strings}
     assert flags["--max-order"].setting.endswith("PLSCFIdentifier.max_order")
     assert flags["--modes"].setting.endswith("PeakIdentifier.n_modes")
+    flags = {a.option_strings[0]: a for c, a in _cli_actions() if c == "diagnose"
+             and a.option_strings}
+    assert flags["--max-effects"].setting.endswith("DiagnoseSettings.max_effects")
 
 
 def test_the_identify_command_uses_the_declared_max_order(tmp_path, capsys):

@@ -126,10 +126,12 @@ def test_uff_written_by_pyuff_is_read_mapped_and_diagnosed(pyuff_data, tmp_path)
                      f'candidates = {list(SUBSET)}\n')
     spec_m = load_model(model)
     diag = diagnose(data, spec_m.make_plant(), spec_m.nominal_parameters(),
-                    spec_m.update.parameters, identify_modes=False,
-                    **spec_m.diagnose.settings())
+                    spec_m.update.parameters,
+                    **{**spec_m.diagnose.settings(), "identify_modes": False})
     (found,) = diag.found
-    assert found.effect == "added_mass" and found.x_m == pytest.approx(1.35)
+    # its position is searched between the nodes: on the node (1.35 m) within a tenth
+    # of the 90-mm element, which the noise allows
+    assert found.effect == "added_mass" and found.x_m == pytest.approx(1.35, abs=0.009)
     assert found.parameters["mass_kg"] == pytest.approx(0.04, rel=0.05)
     out = tmp_path / "report"
     assert main(["diagnose", str(path), "--model", str(model), "--out", str(out),
@@ -247,7 +249,9 @@ def test_a_point_mass_is_not_crowded_out_by_the_many_joint_locations():
     data = measured(camp, "added_mass:station=quarter,mass_kg=0.05")[:1]
     diag = _diagnose(spec, data, max_effects=1)
     (found,) = diag.found
-    assert found.effect == "added_mass" and found.x_m == pytest.approx(0.3)
+    # its position is searched between the nodes: on the node within a tenth of an element
+    h = spec.nominal_parameters()["L_m"] / spec.make_plant().n_elements
+    assert found.effect == "added_mass" and found.x_m == pytest.approx(0.3, abs=0.1 * h)
     assert found.parameters["mass_kg"] == pytest.approx(0.05, rel=0.01)
     assert diag.after.reduced_chi2 < 2.0
 

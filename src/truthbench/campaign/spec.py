@@ -31,7 +31,8 @@ from pydantic_core import PydanticCustomError
 from truthbench._validation import is_safe_name, name_rule, read_text
 from truthbench.errors import CampaignError, ModelError
 from truthbench.identify import PLSCFIdentifier
-from truthbench.settings import settings_model
+from truthbench.diagnose.core import DiagnoseSettings
+from truthbench.settings import declared, settings_model
 from truthbench.update import UPDATERS
 
 Direction = Literal["x", "y", "z", "rx", "ry", "rz"]
@@ -534,34 +535,19 @@ class ChannelPlace(_Strict):
         return self
 
 
-class DiagnoseSpec(_Strict):
-    """``[diagnose]``: how ``truthbench diagnose`` treats data against this model (see
-    :class:`truthbench.diagnose.DiagnoseSettings`)."""
+class _DiagnoseTable(_Strict):
+    """``[diagnose]``: how ``truthbench diagnose`` treats data against this model. Its
+    settings are declared once by :class:`truthbench.diagnose.DiagnoseSettings`; the
+    table's own keys place the data and state their input levels."""
 
     candidates: list[str] | None = None
     """Registry names of the effects to try as missing (default: every diagnosable one)."""
-    band_hz: tuple[NonNegFloat, PositiveFloat] | None = None
-    tolerance_m: PositiveFloat = 1e-3
-    """Largest distance of a measured point from its model node, m."""
     map: dict[str, float] = Field(default_factory=dict)
     """Point number (as a string key) -> position along the beam, m, for data whose
     coordinates are not in the model's frame."""
     channels: dict[str, ChannelPlace] = Field(default_factory=dict)
     """Channel label -> ``{ direction, x_m or station, sign }``, for data that do not say
     where or in which direction a channel measures."""
-    max_effects: Annotated[int, Field(ge=0, le=5)] = 2
-    threshold: NonNegFloat = 10.0
-    refits: Annotated[int, Field(ge=1, le=50)] = 6
-    estimator: bool = True
-    """Compare through the data's estimator (leakage of averaged H1) when it is known."""
-    window: Literal["rectangular", "bartlett", "hann", "hamming"] | None = None
-    """The segment window of averaged FRFs from other tools (UFF files do not say);
-    the segment length follows from the line spacing."""
-    fs_hz: PositiveFloat | None = None
-    """Their sampling rate (default: twice the highest line)."""
-    averages: Annotated[int, Field(ge=1)] | None = None
-    """Their number of averages (UFF FRF sets do not say): with the coherence it sets the
-    noise weight of every value; without it the fit weights values relatively."""
     input_rms_n: dict[str, float | list[float]] = Field(default_factory=dict)
     """Data-set name -> the RMS of its input over the record, N (N m for a moment): one
     number for every input or a list, one per input. Coulomb friction is tried only when
@@ -590,16 +576,17 @@ class DiagnoseSpec(_Strict):
         return v
 
     def settings(self) -> dict[str, Any]:
-        """Keyword arguments of :func:`truthbench.diagnose.diagnose` (``input_rms_n`` is
-        not one: it goes to :func:`truthbench.io.load_measurements`)."""
-        return {"candidates": None if self.candidates is None else tuple(self.candidates),
-                "band_hz": self.band_hz, "tolerance_m": self.tolerance_m,
+        """Keyword arguments of :func:`truthbench.diagnose.diagnose`: the declared
+        settings and the places (``input_rms_n`` is not one: it goes to
+        :func:`truthbench.io.load_measurements`)."""
+        return {**{k: getattr(self, k) for k in declared(DiagnoseSettings)},
+                "candidates": None if self.candidates is None else tuple(self.candidates),
                 "point_map": {int(k): v for k, v in self.map.items()},
                 "channel_map": {k: v.model_dump(exclude_none=True)
-                                for k, v in self.channels.items()},
-                "max_effects": self.max_effects, "threshold": self.threshold,
-                "refits": self.refits, "estimator": self.estimator, "window": self.window,
-                "fs_hz": self.fs_hz, "averages": self.averages}
+                                for k, v in self.channels.items()}}
+
+
+DiagnoseSpec = settings_model("DiagnoseSpec", [DiagnoseSettings], base=_DiagnoseTable)
 
 
 class CampaignSpec(_Strict):

@@ -3,6 +3,10 @@
 
 from __future__ import annotations
 
+from truthbench.cli._args import setting_option
+
+_SETTINGS = "truthbench.diagnose.core:DiagnoseSettings"
+
 
 def _cmd_diagnose(args) -> int:
     import json
@@ -60,6 +64,8 @@ def _cmd_diagnose(args) -> int:
               f"noise variance: model error, not noise)")
     for m in diag.measurements:
         print(f"to settle it: {m.summary()}")
+    for effect, reason in diag.not_tried:
+        print(f"not tried: {effect}: {reason}")
     for f in diag.dropped:
         print(f"dropped: {f.effect} ({_where(f.options)}): no longer significant after a "
               f"later finding")
@@ -101,10 +107,10 @@ def register(subparsers) -> None:
                         "file works too)")
     d.add_argument("--out", help="write diagnosis.md, diagnosis.html and figures here")
     d.add_argument("--json", action="store_true", help="print one JSON object")
-    d.add_argument("--max-effects", type=int, help="most effects to add (default: the "
-                                                   "model file's, 2)")
-    d.add_argument("--threshold", type=float, help="delta BIC an effect must exceed "
-                                                   "(default: the model file's, 10)")
+    setting_option(d, "--max-effects", f"{_SETTINGS}.max_effects",
+                   help="most effects to add (default: the model file's)")
+    setting_option(d, "--threshold", f"{_SETTINGS}.threshold",
+                   help="delta BIC an effect must exceed (default: the model file's)")
     d.add_argument("--candidate", action="append", metavar="EFFECT",
                    help="try only these effects (repeatable)")
     d.add_argument("--band", type=float, nargs=2, metavar=("LO", "HI"),

@@ -283,6 +283,30 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
     return out
 
 
+def not_tried(plant: Plant, tests, names: Sequence[str] | None = None
+              ) -> tuple[tuple[str, str], ...]:
+    """The effects of ``names`` (default: every diagnosable one) that :func:`catalogue`
+    leaves out as a whole here, each with the reason a user can act on."""
+    names = sorted(n for n, c in EFFECTS.items() if c.diagnosis is not None) \
+        if names is None else list(names)
+    out = []
+    if "coulomb_friction" in names:
+        unknown = [t.name for t in tests
+                   if t.frf.input_rms is None or t.frf.band_hz is None]
+        if unknown:
+            out.append(("coulomb_friction",
+                        f"the input level of test(s) {unknown} is not known (UFF FRFs do "
+                        f"not carry it): state it in the model file, [diagnose] "
+                        f"input_rms_n = {{ \"<data set>\" = <N RMS> }}, or give time "
+                        f"records"))
+    if "boundary" in names and "suspension_stiffness_n_m" not in plant.parameters:
+        out.append(("boundary", "the model has no suspension to be wrong"))
+    if getattr(plant, "supports", None) == "none":
+        out += [(n, 'the model file states supports = "none": nothing touches the '
+                    'article, so nothing grounds it') for n in names if n in GROUNDING]
+    return tuple(out)
+
+
 def bind_levels(cands, hardware_of, tests) -> list[Candidate]:
     """Friction candidates with each test's level coefficient (:attr:`Candidate.levels`)
     from the current model: ``sigma_v^2 = sum_i sum_k |j omega R_i(f_k)|^2 G_i df`` over

@@ -25,6 +25,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -38,6 +39,12 @@ MODE_TOLERANCE = 1e-12
 largest are left out of the model FRFs (:func:`truthbench.model.frf`): far below any
 measured noise, and a several-fold speed-up for channels in one plane."""
 
+CORRELATION_LAGS = 4
+"""Lags, in lines, over which the noise's correlation between neighbouring lines enters
+the covariance (:func:`correlated_noise`). A segment window correlates the noise of bins
+k apart by ``|DFT(w^2)(k)| / sum(w^2)``: Hann 0.67 and 0.17 at one and two bins and none
+beyond; Bartlett 0.61, 0.15, 0.07, 0.04 at one to four bins (beyond, less than the
+scatter of the correlation's own estimate from a few thousand values)."""
 
 QUICK_ITERATIONS = 10
 """Iterations of a quick refit (:func:`fit` with ``quick``): it ranks candidates from a
@@ -166,6 +173,28 @@ class Problem:
         their noise over the window's bandwidth."""
         return max((1.0 if t.kernel is None else t.kernel.correlation_lines
                     for t in self.tests), default=1.0)
+
+    @cached_property
+    def neighbours(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+        """For lags k = 1 .. :data:`CORRELATION_LAGS`: the index pairs ``(i, j)`` of the
+        complex values (into :attr:`data`) of one channel pair at lines k apart (the
+        line spacing of its test times k); a windowed estimate's noise is correlated
+        there."""
+        out = [([], []) for _ in range(CORRELATION_LAGS)]
+        start = 0
+        for t in self.tests:
+            f = np.asarray(t.freq_hz)
+            stride = len(t.sensors) * len(t.actuators)
+            if f.size > 1:
+                df = float(np.median(np.diff(f)))
+                for k in range(1, CORRELATION_LAGS + 1):
+                    a = np.flatnonzero(np.abs(f[k:] - f[:-k] - k * df) < 1e-6 * df)
+                    base = start + a[:, None] * stride + np.arange(stride)
+                    out[k - 1][0].append(base.ravel())
+                    out[k - 1][1].append((base + k * stride).ravel())
+            start += f.size * stride
+        return tuple((np.concatenate(i or [np.zeros(0, int)]),
+                      np.concatenate(j or [np.zeros(0, int)])) for i, j in out)
 
     @property
     def n_independent(self) -> float:
@@ -368,15 +397,58 @@ def evaluate(problem: Problem, terms: Sequence[EffectTerm], names: Sequence[str]
         "relative_step", 1e-4), scheme="central", G0=model, additive=additive)
     # per unit of each parameter: relative steps were per theta_k, additive per scale
     unit = np.array([additive[n] if n in additive else theta[n] for n in names], float)
-    J = stack(S * problem.weights[:, None]) / unit
-    r = stack(problem.weights * (problem.data - model))
+    G = S * problem.weights[:, None] / unit
+    z = problem.weights * (problem.data - model)
+    J, r = stack(G), stack(z)
     chi2 = float(r @ r)
+    cross = correlated_noise(G, z, problem.neighbours)
     return Fit(terms, names, dict(theta), chi2, bool(converged), int(iterations), J, r,
-               covariance(J, chi2, problem.n, problem.correlation_lines), model)
+               covariance(J, chi2, problem.n, cross=cross), model)
 
 
-def covariance(J: np.ndarray, chi2: float, n: int, correlation_lines: float = 1.0,
-               rcond: float = 1e-10) -> np.ndarray:
+def correlated_noise(G: np.ndarray, z: np.ndarray,
+                     neighbours: Sequence[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """The part of ``J' C J`` that the correlation of neighbouring lines' noise adds.
+
+    A windowed, averaged estimate's noise is correlated between lines a few bins apart
+    (over the window's bandwidth). With ``c_k = E[z_i conj(z_j)] / E|z|^2`` for values
+    ``k`` lines apart (estimated from the residual ``z`` itself), and circular noise,
+    the covariance of the least-squares gradient is ``s2 (J'J + X)`` with
+    ``X = sum_k sum_(i,j) Re(c_k conj(G_i) G_j^T) + transpose``: the middle of the
+    sandwich ``B^-1 (J' C J) B^-1`` (:func:`covariance`). Unlike a single
+    "lines per independent value" factor, it depends on how fast the sensitivities turn
+    from line to line (near a resonance they do within the window's bandwidth).
+
+    Parameters
+    ----------
+    G : ndarray, complex, shape (N, p)
+        Weighted sensitivities per unit of each parameter.
+    z : ndarray, complex, shape (N,)
+        Weighted residual at the fit.
+    neighbours : sequence of (ndarray, ndarray)
+        Index pairs of values 1, 2, ... lines apart (:attr:`Problem.neighbours`).
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        Symmetric, in the units of ``J' J``.
+    """
+    p = G.shape[1]
+    X = np.zeros((p, p))
+    power = float(np.vdot(z, z).real)
+    if not power > 0 or not z.size:
+        return X
+    for i, j in neighbours:
+        if not i.size:
+            continue
+        c = complex(np.vdot(z[j], z[i])) / (power * i.size / z.size)  # sum z_i conj(z_j)
+        A = (c * G[i].conj()).T @ G[j]
+        X += A.real + A.real.T
+    return X
+
+
+def covariance(J: np.ndarray, chi2: float, n: int, rcond: float = 1e-10, *,
+               cross: np.ndarray | None = None) -> np.ndarray:
     """Parameter covariance of a least-squares fit, ``s2 (J' J)^-1``, computed on the
     column-scaled Jacobian.
 
@@ -395,11 +467,10 @@ def covariance(J: np.ndarray, chi2: float, n: int, correlation_lines: float = 1.
         Weighted cost at the fit.
     n : int
         Real data values.
-    correlation_lines : float
-        Adjacent lines of a windowed estimate are correlated (their noise is the same
-        over the window's bandwidth): a least-squares estimate from them varies by this
-        factor more than from independent values (1: independent lines).
     rcond : float
+    cross : ndarray, shape (p, p), optional
+        The noise's correlation between lines, :func:`correlated_noise`: the covariance
+        is then the sandwich ``s2 B^-1 (J'J + cross) B^-1``, ``B = J'J``.
 
     Returns
     -------
@@ -417,7 +488,9 @@ def covariance(J: np.ndarray, chi2: float, n: int, correlation_lines: float = 1.
     inv = np.where(keep, 1.0 / np.where(keep, s, 1.0) ** 2, 0.0)
     core = (Vt.T * inv) @ Vt
     s2 = chi2 / max(n - p, 1)
-    return s2 * correlation_lines * (d[:, None] * core * d[None, :])
+    if cross is not None:
+        core = core + core @ (d[:, None] * cross * d[None, :]) @ core
+    return s2 * (d[:, None] * core * d[None, :])
 
 
 def _keys(terms: Sequence[EffectTerm]) -> tuple[str, ...]:

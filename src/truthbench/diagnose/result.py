@@ -69,6 +69,9 @@ class Diagnosis:
         insignificant (backward elimination).
     measurements : tuple of Measurement
         Where an ambiguous finding's explanations differ most against the noise.
+    not_tried : tuple of (str, str)
+        Effects asked for that could not be tried at all here, each with the reason
+        (friction without the tests' input levels, a boundary without a suspension).
     """
 
     found: tuple[Found, ...]
@@ -89,6 +92,7 @@ class Diagnosis:
     missing: tuple[MissingMode, ...] = ()
     dropped: tuple[Found, ...] = ()
     measurements: tuple[Measurement, ...] = ()
+    not_tried: tuple[tuple[str, str], ...] = ()
 
     UNCERTAINTY_CHI2 = 2.0
     """The reduced chi2 of the final model (in units of the data's noise) below which
@@ -169,6 +173,7 @@ class Diagnosis:
                         for f in self.dropped],
             "measurements": [{**asdict(m), "summary": m.summary()}
                              for m in self.measurements],
+            "not_tried": [{"effect": e, "reason": r} for e, r in self.not_tried],
             "frf_error_before": self.frf_error_before,
             "frf_error_after": self.frf_error_after,
             "reduced_chi2_before": self.before.reduced_chi2,

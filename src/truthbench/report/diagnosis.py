@@ -57,6 +57,7 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
     else:
         out += ["- **Modes**: every mode identified in the data has a model mode its "
                 "channels see."]
+    out += [f"- **Not tried**: {effect}: {reason}." for effect, reason in diag.not_tried]
     out += ["", "## Verdict", ""]
     holds = diag.uncertainty_holds
     if not diag.found:
