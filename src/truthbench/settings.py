@@ -41,7 +41,7 @@ Fields without :func:`setting` are ordinary fields (not checked, not in the file
 constructor's ``DiagnoseSettings.from_settings(spec.diagnose.model_dump())`` then takes
 the file's values by name, and a command-line option for one is
 ``cli._args.setting_option(parser, "--threshold",
-"truthbench.diagnose.core:DiagnoseSettings.threshold", help=...)``; the contract test
+"truthbench.diagnose.settings:DiagnoseSettings.threshold", help=...)``; the contract test
 (``tests/test_settings.py``) checks a class once it is listed there.
 """
 

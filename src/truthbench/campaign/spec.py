@@ -29,9 +29,9 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from truthbench._validation import is_safe_name, name_rule, read_text
+from truthbench.diagnose.settings import DiagnoseSettings
 from truthbench.errors import CampaignError, ModelError
 from truthbench.identify import PLSCFIdentifier
-from truthbench.diagnose.core import DiagnoseSettings
 from truthbench.settings import declared, settings_model
 from truthbench.update import UPDATERS
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from truthbench.cli._args import setting_option
 
-_SETTINGS = "truthbench.diagnose.core:DiagnoseSettings"
+_SETTINGS = "truthbench.diagnose.settings:DiagnoseSettings"
 
 
 def _cmd_diagnose(args) -> int:

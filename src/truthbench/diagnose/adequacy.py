@@ -49,6 +49,13 @@ MESH_TOLERANCE = 5.0
 halved, beyond what the declared parameters absorb, for the mesh to be adequate: half
 the default selection threshold (10)."""
 
+MESH_SHARE = 0.01
+"""Where the model's error dwarfs the noise (one impact, no averages: the residual is
+thousands of noise variances), the mesh is adequate when halving it changes the model by
+less than this share of the residual's excess over the noise: a discretisation error that
+small cannot be what a candidate takes up (it must explain a quarter of the excess), and
+noise units alone would refine the mesh without end."""
+
 MAX_REFINEMENT = 8
 """The mesh is refined (halved) up to this many times its element count."""
 
@@ -68,6 +75,9 @@ class MeshCheck:
         For each, the chi2 (noise units) of the change to its half that the declared
         parameters cannot absorb.
     tolerance : float
+        The largest change allowed, noise units: ``mesh_tolerance``, or
+        :data:`MESH_SHARE` of the residual's excess over the noise when that is larger
+        (at the mesh used).
     adequate : bool
         Whether the mesh used passed (False: the limit was reached first).
     noise_variance : float
@@ -102,7 +112,7 @@ class MeshCheck:
                        f"part of the residual is discretisation error")
         return (f"{verdict} (change to the mesh halved, beyond what the declared "
                 f"parameters absorb, in noise units of chi2, tolerance "
-                f"{self.tolerance:g}: {steps})")
+                f"{self.tolerance:.3g}: {steps})")
 
 
 @dataclass(frozen=True)
@@ -502,6 +512,6 @@ def _missing(tests, t0, f_e, zeta_e, drop, per_out, noise, df, name) -> MissingM
                        (f_e - half, f_e + half), float(drop / noise), name)
 
 
-__all__ = ["MAX_MISSING", "MAX_REFINEMENT", "MESH_TOLERANCE", "MeshCheck", "MissingMode",
-           "missing_modes", "noise_variance", "refined_plant", "renamed_tests",
+__all__ = ["MAX_MISSING", "MAX_REFINEMENT", "MESH_SHARE", "MESH_TOLERANCE", "MeshCheck",
+           "MissingMode", "missing_modes", "noise_variance", "refined_plant", "renamed_tests",
            "scan_extra_mode", "unexplained_change"]
