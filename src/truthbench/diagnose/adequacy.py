@@ -452,14 +452,14 @@ def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
             found = scan_extra_mode(problem, current, window)
             if found is not None and (picked is None or found[2] > picked[0][2]):
                 picked = (found, r)
-    if picked is not None and significant(picked[0]):
+    if picked is not None and significant(picked[0]) and _resolved(picked[0], lo, hi, df):
         (f_e, zeta_e, drop, per_out), r = picked
         row = min(modal_table(model, hidden),
                   key=lambda x: abs(x["freq_hz"] - hidden.freq_hz[r]))
         return _missing(tests, t0, f_e, zeta_e, drop, per_out, noise, df,
                         f"{row['shape']} at {row['freq_hz']:.5g} Hz")
     found = scan_extra_mode(problem, current, grid)
-    if not significant(found) or not new(found[0]):
+    if not significant(found) or not new(found[0]) or not _resolved(found, lo, hi, df):
         return None
     f_e, zeta_e, drop, per_out = found
     name = None
@@ -499,6 +499,19 @@ def missing_modes(tests: Sequence[MeasuredTest], problem: Problem, current: Fit,
                 if both - alone > 0.5 * alone:
                     return None  # a model mode moved: the candidates' business
     return _missing(tests, t0, f_e, zeta_e, drop, per_out, noise, df, name)
+
+
+def _resolved(found, lo: float, hi: float, df: float) -> bool:
+    """Whether a pole of the scan is a mode the data resolve: damped less than the
+    scan's largest damping (a pole at the grid's end is a broad residual, a model error
+    spread over the band, not a peak) and its half-power band inside the compared band
+    (a pole at the band's edge is the residual's trend there). The 0 Hz pole (a
+    rigid-body mass line) is resolved by its own signature."""
+    f_e, zeta_e = found[0], found[1]
+    if f_e == 0.0:
+        return True
+    half = max(zeta_e * f_e, df)
+    return zeta_e < max(ZETAS) and lo + half <= f_e <= hi - half
 
 
 def _missing(tests, t0, f_e, zeta_e, drop, per_out, noise, df, name) -> MissingMode:

@@ -72,6 +72,7 @@ from truthbench.diagnose.fit import (
     fit_magnitude,
     refit_error,
     with_offsets,
+    residual_lines,
 )
 from truthbench.diagnose.residual import ModeResidual, Residual, mpc, residual_views
 from truthbench.diagnose.screen import POINT_EFFECTS, position_profile
@@ -383,13 +384,48 @@ class _Diagnosis:
     def baseline(self, problem: Problem, start=None) -> tuple[Problem, Fit, Fit]:
         """The declared parameters fitted: (problem with the baseline's leakage offsets,
         the baseline, the magnitude fit the phase signatures are read against)."""
-        structural = fit_magnitude(problem, start=start)
+        structural = fit_magnitude(problem, start=self.level_start(problem)
+                                   if start is None else start)
         current = fit(problem, start=structural)
         problem = with_offsets(problem, current)
         current = fit(problem, start=current.theta)
         # the phase signatures are read against the magnitude fit, which a phase error
         # does not distort (the complex fit may bend the structure to mimic part of it)
         return problem, current, evaluate(problem, (), self.declared, structural)
+
+    def margin(self, problem: Problem, fit_: Fit) -> float:
+        """The ambiguity margin at this fit: ``ambiguity_margin`` while its residual is
+        at the noise level (within :attr:`Diagnosis.UNCERTAINTY_CHI2` of it); beyond,
+        the residual is model error, correlated across lines, and delta BIC counted over
+        independent values overstates how well the data tell two explanations apart: the
+        margin grows by the residual's lines per independent value over the estimator's
+        (:func:`~.fit.residual_lines`)."""
+        from truthbench.diagnose.result import Diagnosis
+
+        ratio = fit_.chi2 / max(problem.n - len(fit_.names), 1) / self.noise
+        if ratio < Diagnosis.UNCERTAINTY_CHI2:
+            return self.settings.ambiguity_margin
+        return self.settings.ambiguity_margin * residual_lines(problem, fit_) / \
+            problem.correlation_lines
+
+    def level_start(self, problem: Problem) -> dict[str, float] | None:
+        """A start at the data's FRF level where the declared parameters can set it: the
+        stiffness and the mass scaled together by ``1 / c`` leave the frequencies alone
+        and scale every FRF by ``c``, so when ``E_pa`` and ``rho_kg_m3`` are both declared
+        and the median ratio ``c = |D| / |M|`` over the lines is more than 5 % from 1, the
+        fit starts there (the same record with its force scaled then gives the same
+        fit). None: the nominal start."""
+        if not {"E_pa", "rho_kg_m3"} <= set(self.declared):
+            return None
+        theta = problem.theta0()
+        model = np.abs(np.asarray(problem.predict()(theta)))
+        ok = model > 0
+        if not ok.any():
+            return None
+        c = float(np.median(np.abs(problem.data[ok]) / model[ok]))
+        if not np.isfinite(c) or c <= 0 or abs(np.log(c)) < np.log(1.05):
+            return None
+        return {**theta, "E_pa": theta["E_pa"] / c, "rho_kg_m3": theta["rho_kg_m3"] / c}
 
     # ---- adequacy --------------------------------------------------------------------
     def mesh_change(self, problem: Problem, fit_: Fit, noise: float):
@@ -519,7 +555,7 @@ class _Diagnosis:
                 continue
             accepted.append(chosen.candidate)
             current, problem = chosen.fit, chosen.problem
-            runner = ambiguous(finals, chosen, s.ambiguity_margin)
+            runner = ambiguous(finals, chosen, self.margin(problem, chosen.fit))
             if runner is not None:
                 alternatives[chosen.candidate.label] = (self._alternative(runner),)
                 try:

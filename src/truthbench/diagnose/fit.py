@@ -435,16 +435,39 @@ def correlated_noise(G: np.ndarray, z: np.ndarray,
     """
     p = G.shape[1]
     X = np.zeros((p, p))
-    power = float(np.vdot(z, z).real)
-    if not power > 0 or not z.size:
-        return X
-    for i, j in neighbours:
-        if not i.size:
-            continue
-        c = complex(np.vdot(z[j], z[i])) / (power * i.size / z.size)  # sum z_i conj(z_j)
-        A = (c * G[i].conj()).T @ G[j]
-        X += A.real + A.real.T
+    for c, (i, j) in zip(line_correlation(z, neighbours), neighbours, strict=True):
+        if i.size and c != 0:
+            A = (c * G[i].conj()).T @ G[j]
+            X += A.real + A.real.T
     return X
+
+
+def line_correlation(z: np.ndarray, neighbours: Sequence[tuple[np.ndarray, np.ndarray]]
+                     ) -> np.ndarray:
+    """``c_k = sum z_i conj(z_j) / sum |z|^2`` per pair, over the pairs of values k lines
+    apart (:attr:`Problem.neighbours`), shape (K,), complex; 0 where there are none."""
+    power = float(np.vdot(z, z).real)
+    out = np.zeros(len(neighbours), complex)
+    if not power > 0 or not z.size:
+        return out
+    for k, (i, j) in enumerate(neighbours):
+        if i.size:
+            out[k] = complex(np.vdot(z[j], z[i])) / (power * i.size / z.size)
+    return out
+
+
+def residual_lines(problem: Problem, fit_: Fit) -> float:
+    """Lines per independent value of a fit's residual, from its own correlation between
+    neighbouring lines (an AR(1) reading of the lag-one correlation ``rho``:
+    ``(1 + rho) / (1 - rho)``), never below the estimator's
+    (:attr:`Problem.correlation_lines`). Noise gives about the estimator's figure; a
+    model error, smooth across lines, gives tens to hundreds: the residual then holds
+    far fewer independent values than lines, and a difference of chi2 between two
+    explanations means that much less."""
+    N = problem.data.size
+    z = fit_.residual[:N] + 1j * fit_.residual[N:]
+    rho = float(np.clip(line_correlation(z, problem.neighbours[:1])[0].real, 0.0, 0.999))
+    return max(problem.correlation_lines, (1 + rho) / (1 - rho))
 
 
 def covariance(J: np.ndarray, chi2: float, n: int, rcond: float = 1e-10, *,
