@@ -2,8 +2,8 @@
 
 :func:`read_uff` is the ``.uff`` / ``.unv`` reader of :func:`truthbench.io.load_frf`;
 :func:`write_uff` writes FRFData for other tools. Both go through pyuff
-(the private :mod:`truthbench.io._uff58` holds the dataset-58 layer and the one table of
-direction codes, :data:`DIRECTION_CODES`).
+(the private :mod:`truthbench.io._uff58` holds the dataset-58 layer and
+:mod:`truthbench.io._uff_codes` the one table of direction codes, :data:`DIRECTION_CODES`).
 
 Reading
 -------
@@ -88,18 +88,14 @@ import numpy as np
 from truthbench.errors import DataFormatError
 from truthbench.io._uff58 import (
     _SAME_ABSCISSA_RTOL,
-    DIRECTION_CODES,
     _assemble_grid,
     _assemble_time,
-    _base_set,
     _check_delimiters,
     _common_of,
-    _plan_abscissa,
     _read_sets,
-    _write_sets,
-    direction_label,
-    direction_name,
 )
+from truthbench.io._uff58_write import _base_set, _plan_abscissa, _write_sets
+from truthbench.io._uff_codes import DIRECTION_CODES, direction_label, direction_name
 from truthbench.io.units import SI, UNIT_SYMBOLS, UnitSystem, parse_unit, quantity_dimension
 from truthbench.quantities import RESPONSE_QUANTITIES, by_uff_code, quantity
 
