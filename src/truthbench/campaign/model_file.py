@@ -17,13 +17,8 @@ from typing import Any
 
 from pydantic import Field, ValidationError
 
-from truthbench.campaign.spec import (
-    DiagnoseSpec,
-    PlantSpec,
-    UpdateSpec,
-    _format_validation_error,
-    _Strict,
-)
+from truthbench.campaign.spec import _format_validation_error
+from truthbench.campaign.spec_tables import DiagnoseSpec, PlantSpec, UpdateSpec, _Strict
 from truthbench.errors import CampaignError, ModelError
 
 CAMPAIGN_ONLY = ("sensors", "tests", "truth", "identify", "uncertainty", "output")

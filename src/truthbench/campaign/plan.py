@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from truthbench.campaign.spec import CampaignSpec, TestSpec
+    from truthbench.campaign.spec import CampaignSpec
+    from truthbench.campaign.spec_tables import TestSpec
 
 TEST_EFFECT_KEY = 1000
 """Stream key of a test's own effects: ``1000 + 100 j + n`` for the n-th effect of test

@@ -71,8 +71,8 @@ from truthbench.diagnose.fit import (
     fit,
     fit_magnitude,
     refit_error,
-    with_offsets,
     residual_lines,
+    with_offsets,
 )
 from truthbench.diagnose.residual import ModeResidual, Residual, mpc, residual_views
 from truthbench.diagnose.screen import POINT_EFFECTS, position_profile

@@ -48,7 +48,8 @@ from truthbench.fe.assembly import DIRECTIONS
 from truthbench.model import StructuralModel, modal_system
 from truthbench.plants.base import Actuator, Plant, Sensor, StructuralAdditions
 from truthbench.simulate import add_sensor_noise, band_limited_random, simulate_lti
-from truthbench.simulate.nonlinear import NonlinearElement, simulate_nonlinear
+from truthbench.simulate.nonlinear import simulate_nonlinear
+from truthbench.simulate.nonlinear_elements import NonlinearElement
 
 SIMULATION_METHODS = ("periodic", "time")
 
@@ -169,7 +170,7 @@ class Hardware:
     disturbances : tuple of (station, direction, rms)
         Unmeasured band-limited random forces (process noise), N or N m RMS.
     nonlinear : tuple of (station, direction, law)
-        Grounded nonlinear elements (laws of :mod:`truthbench.simulate.nonlinear`).
+        Grounded nonlinear elements (laws of :mod:`truthbench.simulate.nonlinear_elements`).
     loops : tuple of Loop
         Feedback loops closed around the structure (:mod:`truthbench.effects.loop`),
         indices into ``sensors`` and ``actuators``.

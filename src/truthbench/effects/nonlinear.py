@@ -2,8 +2,8 @@
 and strong (Coulomb friction with stick-slip, dead band), each grounded at one DOF of a
 station (the hub bearing is ``station = "hub"``, ``direction = "rz"``).
 
-Each effect contributes a law of :mod:`truthbench.simulate.nonlinear` (the engine owns
-the laws; an effect only chooses one and places it). Hardware with a nonlinear effect is
+Each effect contributes a law of :mod:`truthbench.simulate.nonlinear_elements` (the
+engine owns the laws; an effect only chooses one and places it). Hardware with a nonlinear effect is
 simulated in the time domain (:meth:`truthbench.effects.Hardware.simulate`), whatever
 the method asked for: the periodic steady state is exact only for a linear truth.
 """
@@ -19,7 +19,7 @@ from truthbench.effects.base import (
     FitParam,
     register_effect,
 )
-from truthbench.simulate.nonlinear import (
+from truthbench.simulate.nonlinear_elements import (
     AmplitudeDependentDamping,
     CoulombFriction,
     CubicStiffness,

@@ -10,13 +10,15 @@
 - :mod:`truthbench.io.measurements`: :func:`load_measurements`, several data files as
   acquisition systems export them: coherence-only UFF files paired with their FRF sets,
   excitation levels (``input_rms_n``) by data-set name.
-- :mod:`truthbench.io.uff_frf`: the UFF files: :func:`read_uff` (the ``.uff`` /
-  ``.unv`` reader: FRF and coherence sets, units from dataset 164, points from 2411),
-  :func:`read_uff_files` (several files, coherence files paired by node, direction and
-  load case) and :func:`write_uff` (151, 164, 2411, 58), with the point numbering rule
-  :func:`number_points` and the direction codes :data:`DIRECTION_CODES`
-  (:func:`direction_label`). Underneath, the private dataset-58 layer through pyuff
-  (:mod:`truthbench.io._uff58`).
+- :mod:`truthbench.io.uff_frf`: reading UFF files: :func:`read_uff` (the ``.uff`` /
+  ``.unv`` reader: FRF and coherence sets, units from dataset 164, points from 2411)
+  and :func:`read_uff_files` (several files, coherence files paired by node, direction
+  and load case), with the direction codes :data:`DIRECTION_CODES`
+  (:func:`direction_label`).
+- :mod:`truthbench.io.uff_write`: writing UFF files: :func:`write_uff` (151, 164, 2411,
+  58), with the point numbering rule :func:`number_points`. Underneath both, the private
+  dataset-58 layer through pyuff (:mod:`truthbench.io._uff58`, its writers in
+  :mod:`truthbench.io._uff58_write` and the UFF codes in :mod:`truthbench.io._uff_codes`).
 - :mod:`truthbench.io.lvm`: LabVIEW Measurement reader :func:`read_lvm` ->
   :class:`TimeRecord`, :func:`to_si`, and the shipped LADISK beam impact test
   :func:`ladisk_beam_impact`.
@@ -44,13 +46,11 @@ from truthbench.io.registry import load_frf, register_reader, registered_extensi
 from truthbench.io.time_records import frf_from_record, read_lvm_frf
 from truthbench.io.uff_frf import (
     DIRECTION_CODES,
-    PointNumbers,
     direction_label,
-    number_points,
     read_uff,
     read_uff_files,
-    write_uff,
 )
+from truthbench.io.uff_write import PointNumbers, number_points, write_uff
 from truthbench.io.units import SI, UnitSystem, parse_unit
 
 register_reader(".h5", read_frf)

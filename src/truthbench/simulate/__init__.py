@@ -23,15 +23,13 @@ from .linear import (
     simulate_statespace,
 )
 from .noise import add_sensor_noise, noise_to_signal_ratio
-from .nonlinear import (
+from .nonlinear import NonlinearResult, prepare_nonlinear, simulate_nonlinear
+from .nonlinear_elements import (
     AmplitudeDependentDamping,
     CoulombFriction,
     CubicStiffness,
     DeadBand,
     NonlinearElement,
-    NonlinearResult,
-    prepare_nonlinear,
-    simulate_nonlinear,
 )
 
 __all__ = [

@@ -16,6 +16,7 @@ from truthbench.update.macroelements import (
     macroelement_matrices,
     system_matrices,
 )
+from truthbench.update.modal_sensitivity import damping_sensitivities, eigen_sensitivities
 from truthbench.update.predictor import (
     APPENDED_PARAMETERS,
     EffectTerm,
@@ -35,8 +36,6 @@ from truthbench.update.sensitivity import (
     ModalPairs,
     SensitivityResult,
     SensitivityUpdater,
-    damping_sensitivities,
-    eigen_sensitivities,
     sensitivity_update,
 )
 

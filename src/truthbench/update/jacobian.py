@@ -17,7 +17,7 @@ The structural FRF in the complete modal basis (every mode of the model, which i
 with ``q`` the output's power (0, 1, 2 for displacement, velocity, acceleration). For a
 parameter with macroelements ``dK, dM, dC, dzeta`` (:mod:`truthbench.update.macroelements`,
 per unit relative change) the eigen-sensitivities of
-:mod:`truthbench.update.sensitivity` give ``dPhi = Phi Cc`` (Fox-Kapoor in the complete
+:mod:`truthbench.update.modal_sensitivity` give ``dPhi = Phi Cc`` (Fox-Kapoor in the complete
 basis, ``Cc_ki = A_ki / (lambda_i - lambda_k)``, ``Cc_ii = -H_ii / 2``, with
 ``A = Phi^T (dK - lambda_i dM) Phi`` and ``H = Phi^T dM Phi``), and by the product rule::
 
@@ -75,7 +75,7 @@ affine prediction from the cached macroelements. Rounding of the prediction is a
 
 DEGENERATE_RTOL = 1e-6
 """Relative eigenvalue gap below which two modes form a degenerate cluster (the value of
-:func:`truthbench.update.sensitivity.eigen_sensitivities`)."""
+:func:`truthbench.update.modal_sensitivity.eigen_sensitivities`)."""
 
 _EPS = np.finfo(float).eps
 _DENSE_CHECK = 2000  # DOFs up to which the affine check runs on dense copies
