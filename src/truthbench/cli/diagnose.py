@@ -82,7 +82,7 @@ def _cmd_diagnose(args) -> int:
 
 
 def _where(options) -> str:
-    return ", ".join(f"{k} {v}" for k, v in options.items()) or "-"
+    return ", ".join(f"{k} {v}" for k, v in options.items()) or "the whole structure"
 
 
 def register(subparsers) -> None:

@@ -131,7 +131,9 @@ def _hinge_share(fitted: Mapping[str, float], weight: float) -> dict[str, float]
     """One element's part of a joint between element centres: ``weight`` of the joint's
     flexibility (``loss / (1 - loss)`` per element length) and of its dashpot."""
     loss = min(float(fitted["stiffness_loss"]), 0.999)
-    g = weight * max(loss, 0.0) / (1.0 - loss)
+    # no clamp at 0: a fit that steps below it must still see the parameter move the
+    # model (a negative loss is a stiffening, refused as unphysical by the bounds)
+    g = weight * loss / (1.0 - loss)
     return {"stiffness_loss": g / (1.0 + g),
             "damping_n_m_s_rad": weight * float(fitted["damping_n_m_s_rad"])}
 

@@ -82,6 +82,7 @@ from truthbench.diagnose.search import (
     Refit,
     Tried,
     adapted,
+    bounds_ok,
     data_delay,
     delta_bic,
     fitted_own,
@@ -354,8 +355,10 @@ class _Diagnosis:
         self._evidence: dict[str, float] = {}
 
     # ---- the problem ------------------------------------------------------------------
-    def problem(self, plant, tests) -> Problem:
-        """The fitting problem of ``tests`` on ``plant`` (node stations added)."""
+    def problem(self, plant, tests, accepted: Sequence[Candidate] = ()) -> Problem:
+        """The fitting problem of ``tests`` on ``plant`` (node stations added), with the
+        natural sizes of ``accepted``'s parameters (fitted additively: a joint's loss may
+        come near 0, where a relative step has no size)."""
         s = self.settings
         ptests = tuple(PredictedTest(
             t.name, t.freq_hz, t.actuators, t.sensors, decay_rad_s=t.frf.window_decay_rad_s,
@@ -376,8 +379,11 @@ class _Diagnosis:
         self.refs = refs
         extra = ExtraModes.build(self.extra_poles, ptests, weights) if self.extra_poles \
             else None
+        scales = {k: refs["time"] for k in self.declared if k == "delay_s"}
+        for a in accepted:
+            scales.update(a.scales(refs))
         return Problem(model_plant, dict(self.nominal), ptests, values, weights, self.declared,
-                       {k: refs["time"] for k in self.declared if k == "delay_s"}, None,
+                       scales, None,
                        {"max_iterations": s.max_iterations, "tolerance": s.tolerance},
                        extra)
 
@@ -477,7 +483,7 @@ class _Diagnosis:
             tests = adequacy.renamed_tests(tests, renamed)
             theta = _renamed_theta(current.theta, current.terms, renamed)
             accepted = [_renamed_candidate(c, renamed) for c in accepted]
-            fresh = self.problem(fine, tests)
+            fresh = self.problem(fine, tests, accepted)
             if accepted:
                 current = fit(fresh, terms_of(accepted, theta), start=theta)
                 problem = with_offsets(fresh, current)
@@ -502,15 +508,22 @@ class _Diagnosis:
                                        known=[x.freq_hz for x in missing])
             if m is None:
                 break
-            missing.append(m)
             self.extra_poles += ((m.freq_hz, m.damping_ratio),)
-            fresh = self.problem(problem.plant, tests)
-            if accepted:
-                current = fit(fresh, current.terms, start=current.theta)
-                problem = with_offsets(fresh, current)
-                current = fit(problem, current.terms, start=current.theta)
-            else:
-                problem, current, signature = self.baseline(fresh, start=current.theta)
+            fresh = self.problem(problem.plant, tests, accepted)
+            try:
+                if accepted:
+                    refitted = fit(fresh, current.terms, start=current.theta)
+                    problem_m = with_offsets(fresh, refitted)
+                    refitted = fit(problem_m, refitted.terms, start=refitted.theta)
+                    sig_m = None
+                else:
+                    problem_m, refitted, sig_m = self.baseline(fresh, start=current.theta)
+            except REFIT_ERRORS:
+                # the model with the mode in cannot be refitted: left as it was
+                self.extra_poles = self.extra_poles[:-1]
+                break
+            missing.append(m)
+            problem, current, signature = problem_m, refitted, sig_m or signature
         return problem, current, signature
 
     # ---- the search ------------------------------------------------------------------
@@ -555,9 +568,10 @@ class _Diagnosis:
                 continue
             accepted.append(chosen.candidate)
             current, problem = chosen.fit, chosen.problem
-            runner = ambiguous(finals, chosen, self.margin(problem, chosen.fit))
+            margin = self.margin(problem, chosen.fit)
+            runner = ambiguous(finals, chosen, margin)
             if runner is not None:
-                alternatives[chosen.candidate.label] = (self._alternative(runner),)
+                alternatives[chosen.candidate.label] = (self._alternative(runner, margin),)
                 try:
                     measured += measurements(problem, chosen.fit, runner.fit,
                                              (chosen.candidate.label, runner.candidate.label),
@@ -862,17 +876,24 @@ class _Diagnosis:
                     continue
                 dbic = delta_bic(n, without.chi2, current.chi2, len(a.fitted))
                 self._evidence[a.label] = dbic
-                if dbic < threshold and (worst is None or dbic < worst[0]):
-                    worst = (dbic, a, without, pc)
+                # an effect whose values a later refit moved out of their physical
+                # bounds (a joint's loss below 0) goes first, whatever it explains
+                rank = -np.inf if bounds_ok(a, current.theta, {}, a.scales(self.refs)) \
+                    else dbic
+                if (rank < threshold) and (worst is None or rank < worst[0]):
+                    worst = (rank, a, without, pc)
             if worst is None:
                 break
-            dbic, a, without, pc = worst
+            rank, a, without, pc = worst
+            dbic = self._evidence[a.label]
+            why = ("dropped: out of its physical bounds after a later refit"
+                   if rank == -np.inf else "dropped: no longer significant")
             own = fitted_own(a, current.theta)
             gone.append(Found(a.effect, dict(a.options), a.effect_values(own), own,
                               {k: float("nan") for k in own}, float(dbic), a.node, a.label))
             self.tried.append(Tried(step, a.label, a.effect, a.options, float("nan"),
                                     float(dbic), own, a.effect_values(own),
-                                    "dropped: no longer significant"))
+                                    why))
             accepted = [x for x in accepted if x is not a]
             current, problem = without, with_offsets(pc, without)
         return accepted, current, problem, gone
@@ -894,11 +915,11 @@ class _Diagnosis:
                              a.node, a.label, x_m, alternatives.get(a.label, ())))
         return out
 
-    def _alternative(self, r: Refit) -> Alternative:
+    def _alternative(self, r: Refit, margin: float) -> Alternative:
         c = r.candidate
         own = fitted_own(c, r.fit.theta)
         return Alternative(c.effect, dict(c.options), c.label, c.effect_values(own), own,
-                           r.delta_bic, c.node)
+                           r.delta_bic, c.node, margin)
 
 
 __all__ = ["DiagnoseSettings", "Found", "Residual", "Tried", "diagnose"]

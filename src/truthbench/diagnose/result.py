@@ -124,8 +124,9 @@ class Diagnosis:
             return "nothing missing"
         parts = []
         for f in self.found:
-            names = [f"{f.effect} ({_where(f.options)})"] + [
-                f"{a.effect} ({_where(a.options)})" for a in f.alternatives]
+            names = [f.effect + (f" ({_where(f.options)})" if f.options else "")] + [
+                a.effect + (f" ({_where(a.options)})" if a.options else "")
+                for a in f.alternatives]
             parts.append(" or ".join(names))
         return "; ".join(parts)
 

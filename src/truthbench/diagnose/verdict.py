@@ -41,6 +41,9 @@ class Alternative:
         Its evidence against the model without it (the found effect's is larger by less
         than the margin).
     node : int or None
+    margin : float
+        The margin of delta BIC it was within: ``ambiguity_margin``, grown where the
+        residual is model error (:meth:`~truthbench.diagnose.core._Diagnosis.margin`).
     """
 
     effect: str
@@ -50,6 +53,7 @@ class Alternative:
     fitted: dict
     delta_bic: float
     node: int | None
+    margin: float = float("nan")
 
 
 @dataclass(frozen=True)

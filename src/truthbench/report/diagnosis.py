@@ -23,7 +23,7 @@ def _safe(name: str) -> str:
 
 
 def _where(options: dict) -> str:
-    return ", ".join(f"{k} {v}" for k, v in options.items()) or "-"
+    return ", ".join(f"{k} {v}" for k, v in options.items()) or "the whole structure"
 
 
 def _value(v: float, s: float | None = None) -> str:
@@ -72,9 +72,13 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
                 f"delta BIC {sig(f.delta_bic)}")
         for a in f.alternatives:
             alt = ", ".join(f"{k} = {sig(v)}" for k, v in a.parameters.items())
-            line += (f"\n  - **or {a.effect}** at {_where(a.options)} ({alt}): delta BIC "
-                     f"{sig(a.delta_bic)}, within {sig(diag.settings.ambiguity_margin)} of "
-                     f"it: these data cannot tell the two apart")
+            grown = ("" if not a.margin > diag.settings.ambiguity_margin else
+                     f" (the margin {sig(diag.settings.ambiguity_margin)} grown to "
+                     f"{sig(a.margin)}: the residual is model error, correlated across "
+                     f"lines, and holds fewer independent values than it has lines)")
+            line += (f"\n- **or {a.effect}** at {_where(a.options)} ({alt}): delta BIC "
+                     f"{sig(a.delta_bic)}, within the margin of it{grown}: these data "
+                     f"cannot tell the two apart")
         out.append(line)
     if diag.found:
         if holds:
