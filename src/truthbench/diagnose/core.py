@@ -414,6 +414,16 @@ class _Diagnosis:
         return self.settings.ambiguity_margin * residual_lines(problem, fit_) / \
             problem.correlation_lines
 
+    def rebaseline(self, problem, tests, before_problem, baseline):
+        """The baseline refitted on the terms the model is now compared on (its mesh,
+        the modes modelled in), or the one before where that refit fails."""
+        try:
+            fresh, refitted, _ = self.baseline(self.problem(problem.plant, tests),
+                                               start=baseline.theta)
+        except REFIT_ERRORS:
+            return before_problem, baseline
+        return fresh, refitted
+
     def level_start(self, problem: Problem) -> dict[str, float] | None:
         """A start at the data's FRF level where the declared parameters can set it: the
         stiffness and the mass scaled together by ``1 / c`` leave the frequencies alone
@@ -480,16 +490,23 @@ class _Diagnosis:
             if fine.n_elements > limit:
                 adequate = False
                 break
-            tests = adequacy.renamed_tests(tests, renamed)
+            renamed_tests = adequacy.renamed_tests(tests, renamed)
             theta = _renamed_theta(current.theta, current.terms, renamed)
-            accepted = [_renamed_candidate(c, renamed) for c in accepted]
-            fresh = self.problem(fine, tests, accepted)
-            if accepted:
-                current = fit(fresh, terms_of(accepted, theta), start=theta)
-                problem = with_offsets(fresh, current)
-                current = fit(problem, current.terms, start=current.theta)
-            else:
-                problem, current, signature = self.baseline(fresh, start=theta)
+            renamed_accepted = [_renamed_candidate(c, renamed) for c in accepted]
+            fresh = self.problem(fine, renamed_tests, renamed_accepted)
+            try:
+                if accepted:
+                    refitted = fit(fresh, terms_of(renamed_accepted, theta), start=theta)
+                    problem_f = with_offsets(fresh, refitted)
+                    refitted = fit(problem_f, refitted.terms, start=refitted.theta)
+                    sig_f = None
+                else:
+                    problem_f, refitted, sig_f = self.baseline(fresh, start=theta)
+            except REFIT_ERRORS:
+                adequate = False  # the refined model cannot be refitted: kept as it was
+                break
+            tests, accepted = renamed_tests, renamed_accepted
+            problem, current, signature = problem_f, refitted, sig_f or signature
         return (adequacy.MeshCheck(tuple(counts), tuple(changes), tolerance, adequate,
                                    noise), problem, tests, current, accepted, signature)
 
@@ -563,8 +580,8 @@ class _Diagnosis:
                                                    missing)
                 if len(self.extra_poles) == poles:
                     break
-                before_problem, baseline, _ = self.baseline(
-                    self.problem(problem.plant, tests), start=baseline.theta)
+                before_problem, baseline = self.rebaseline(problem, tests, before_problem,
+                                                           baseline)
                 continue
             accepted.append(chosen.candidate)
             current, problem = chosen.fit, chosen.problem
@@ -602,8 +619,8 @@ class _Diagnosis:
                                                missing)
             if len(self.extra_poles) != poles or problem.plant.n_elements != used:
                 # the baseline compared on the same terms (mesh, modes modelled in)
-                before_problem, baseline, _ = self.baseline(
-                    self.problem(problem.plant, tests), start=baseline.theta)
+                before_problem, baseline = self.rebaseline(problem, tests, before_problem,
+                                                           baseline)
         found = self.evidence(problem, current, accepted, n, alternatives)
         before = residual_views(tests, _parts(tests, baseline.model), len(baseline.names),
                                 modes=_modes(tests, before_problem, baseline, data_modes))
