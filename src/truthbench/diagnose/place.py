@@ -1,0 +1,159 @@
+"""Placing a found attachment between the model's nodes.
+
+A point attachment (a mass, a spring, a dashpot) found at a node is moved along the two
+elements either side of it to where the data put it: its exact chi2 profile first, then a
+parabola through three quick refits. A joint found at a node is moved between element
+centres, its flexibility shared by the two elements either side
+(:func:`~truthbench.diagnose.candidates.hinge_parts`). The refit replaces the node's when
+it explains the data better.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from truthbench.diagnose.candidates import hinge_parts
+from truthbench.diagnose.fit import evaluate, refit_error
+from truthbench.diagnose.screen import POINT_EFFECTS, position_profile
+from truthbench.diagnose.search import (
+    REFIT_ERRORS,
+    Refit,
+    Tried,
+    adapted,
+    fitted_own,
+    full_refit,
+    refit,
+)
+
+
+class _Placement:
+    """The placing steps of :class:`~truthbench.diagnose.core._Diagnosis` (a mixin: they
+    use its settings, references and record of candidates tried)."""
+
+    def refine_position(self, problem, current, accepted, chosen: Refit, n, step, tests
+                        ) -> Refit:
+        """A point attachment's position searched between the nodes next to it: its
+        exact chi2 profile along the two elements either side (eight points each, then
+        eight between the best and its neighbours), and the best point refitted. The
+        refit replaces the chosen one when it explains the data better."""
+        c = chosen.candidate
+        if c.effect == "joint" and c.node is not None and c.parts is None:
+            return self.refine_hinge(problem, current, accepted, chosen, n, step, tests)
+        if c.effect not in POINT_EFFECTS or c.node is None:
+            return chosen
+        plant = problem.plant
+        N = plant.n_elements
+        value = abs(float(next(iter(fitted_own(c, chosen.fit.theta).values()))))
+        if not value > 0:
+            return chosen
+        strengths = value * np.logspace(-0.4, 0.4, 17)
+        lo, hi = max(c.node - 1, 0) / N, min(c.node + 1, N) / N
+        # the profile adapts the other parameters to first order from where it starts:
+        # start from the chosen fit's values of them (the declared parameters moved for
+        # this attachment), without the attachment
+        own = set(chosen.fit.terms[-1].keys()) if chosen.fit.terms else set()
+        try:
+            near = evaluate(problem, current.terms, current.names,
+                            {**current.theta, **{k: v for k, v in chosen.fit.theta.items()
+                                                 if k in current.names and k not in own}})
+        except REFIT_ERRORS:
+            near = current
+        best = None
+        for fractions in (np.linspace(lo, hi, 17), None):
+            if fractions is None:
+                if best is None:
+                    return chosen
+                d = (hi - lo) / 16
+                fractions = np.clip(best[0] + d * np.linspace(-1, 1, 9), lo, hi)
+            prof = position_profile(problem, near, c, fractions, strengths)
+            top = max(prof, key=lambda x: x[1], default=None)
+            if top is not None and (best is None or top[1] > best[1]):
+                best = top
+        fraction, drop, strength, adapt = best
+        start = adapted(near.theta, dict(zip(near.names, adapt, strict=True)))
+
+        def quick_at(fr):
+            name = f"x{fr:.6f}"
+            moved_plant = replace(plant, stations={**plant.stations, name: float(fr)})
+            opts = {**c.options, "station": name}
+            label = f"{c.effect}@{name}" + (f".{opts['direction']}" if "direction" in opts
+                                            else "")
+            moved = replace(c, options=opts, label=label, node=int(round(fr * N)))
+            pm = replace(problem, plant=moved_plant)
+            return pm, refit(pm, current, accepted, moved, drop, np.array([strength]),
+                             self.refs, n, step, self.tried, declared_start=start)
+
+        # the profile's first-order adaptation of the declared parameters blurs the
+        # position by a fraction of an element: a parabola through three quick refits
+        h = (hi - lo) / 32
+        trio = [(fr, quick_at(fr)) for fr in np.clip(fraction + h * np.arange(-1, 2), lo, hi)]
+        if all(q is not None and q.physical for _, (_, q) in trio) and len(
+                {fr for fr, _ in trio}) == 3:
+            x = np.array([fr for fr, _ in trio])
+            y = np.array([q.fit.chi2 for _, (_, q) in trio])
+            a, b, _ = np.polyfit(x - x[1], y, 2)
+            if a > 0:
+                fraction = float(np.clip(x[1] - b / (2 * a), x[0] - h, x[2] + h))
+        if abs(fraction * N - round(fraction * N)) < 1e-6:
+            return chosen  # the best point is a node: the candidate as it is
+        pm, quick = quick_at(fraction)
+        if quick is None or not quick.physical:
+            return chosen
+        try:
+            full = full_refit(pm, current, accepted, quick, self.refs, n, tests)
+        except REFIT_ERRORS as exc:
+            m = quick.candidate
+            self.tried.append(Tried(step, m.label, m.effect, m.options, float("nan"),
+                                    status=f"full refit: {refit_error(exc)}"))
+            return chosen
+        return full if full.physical and full.delta_bic > chosen.delta_bic else chosen
+
+    def refine_hinge(self, problem, current, accepted, chosen: Refit, n, step, tests
+                     ) -> Refit:
+        """A joint's place searched between element centres: its flexibility shared by
+        the two elements either side of a point (:func:`~.candidates.hinge_parts`), the
+        point found by a parabola through quick refits at the element's centre and its
+        two nodes. A joint is a local flexibility; a model's element is where its mesh
+        puts one, and a joint of the hardware straddles two elements as often as not.
+        The refit replaces the chosen one when it explains the data better."""
+        c = chosen.candidate
+        plant = problem.plant
+        N = plant.n_elements
+        own = fitted_own(c, chosen.fit.theta)
+        start_theta = {k: v for k, v in chosen.fit.theta.items() if k in current.names}
+
+        def quick_at(fr):
+            name = f"x{fr:.6f}"
+            moved_plant = replace(plant, stations={**plant.stations, name: float(fr)})
+            moved = replace(c, options={**c.options, "station": name},
+                            label=f"{c.effect}@{name}.{c.options['direction']}",
+                            node=int(np.clip(np.floor(fr * N), 0, N - 1)),
+                            parts=hinge_parts(fr, N))
+            pm = replace(problem, plant=moved_plant)
+            return pm, refit(pm, current, accepted, moved, float("nan"),
+                             np.array([own[p.name] for p in c.fitted]), self.refs, n, step,
+                             self.tried, declared_start={**current.theta, **start_theta})
+
+        points = [(fr, quick_at(fr)) for fr in (np.array([0.0, 0.5, 1.0]) + c.node) / N
+                  if 0 <= fr <= 1]
+        good = [(fr, q) for fr, (_, q) in points if q is not None and q.physical]
+        if len(good) < 3:
+            return chosen
+        x = np.array([fr for fr, _ in good])
+        y = np.array([q.fit.chi2 for _, q in good])
+        a, b, _ = np.polyfit(x - x[1], y, 2)
+        if not a > 0:
+            return chosen
+        fraction = float(np.clip(x[1] - b / (2 * a), x[0], x[2]))
+        if abs(fraction * N - (c.node + 0.5)) < 0.05:
+            return chosen  # at the element's centre: the element's own joint
+        pm, quick = quick_at(fraction)
+        if quick is None or not quick.physical:
+            return chosen
+        try:
+            full = full_refit(pm, current, accepted, quick, self.refs, n, tests)
+        except REFIT_ERRORS:
+            return chosen
+        return full if full.physical and full.delta_bic > chosen.delta_bic else chosen
