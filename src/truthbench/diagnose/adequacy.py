@@ -8,15 +8,14 @@ model lacks. Two checks run on the baseline fit:
 measured points stay on nodes), at the baseline's parameters. The part of the
 difference the declared parameters cannot absorb (the difference projected off the
 baseline's weighted Jacobian) is measured in units of the data's noise,
-
-    change = (|r|^2 - |Q' r|^2) / s2,    r = w (H_{h/2} - H_h),    J = Q R,
-
-with ``s2`` the noise variance per real value of the weighted data (1 for weights from
+``change = (|r|^2 - |Q' r|^2) / s2`` with ``r = w (H_{h/2} - H_h)`` and ``J = Q R``,
+``s2`` the noise variance per real value of the weighted data (1 for weights from
 coherence, else the roughness estimate of :func:`noise_variance`). It bounds the chi2
 drop any candidate could gain by mimicking the discretisation error (the error of h
 is 16/15 of the h to h/2 change for the cubic beam element's h^4 convergence). Where it
-exceeds the tolerance (default one noise unit, against a selection threshold of 10
-and more), the mesh is refined and checked again, up to a limit; beyond the limit the
+exceeds the tolerance (``mesh_tolerance``, 5 noise units, half the selection
+threshold; or :data:`MESH_SHARE` of the residual's excess over the noise where that is
+larger), the mesh is refined and checked again, up to a limit; beyond the limit the
 diagnosis says the mesh is too coarse, with the figures.
 
 **Modes the model lacks.** The baseline's residual is scanned for a mode: the pole

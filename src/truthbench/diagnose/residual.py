@@ -1,21 +1,19 @@
 """The residual between data and a model, in every view that carries a signature.
 
-=====================  ====================================================  ====================
-view                   what it is                                            points at
-=====================  ====================================================  ====================
-FRF error              ``sqrt(sum |w (D - M)|^2 / sum |w D|^2)``, w = 1/sigma  anything
-reduced chi2           ``chi2 / (n - p)``: 1 when the residual is noise        anything
-phase slope            ``-d arg(D / M) / d omega`` from the weighted mean     a time delay
-                       phase step between adjacent lines
-magnitude ratio        per channel, least squares ``|D| / |M|``               a gain error
-modal residuals        identified data modes paired with the model's (MAC):  structural changes
-                       frequency and damping errors, MAC, modal complexity   (mass, stiffness,
-                       (MPC: 1 for a real mode)                              concentrated damping)
-level dependence       for tests with the same channels, the difference of    a nonlinearity
-                       their FRFs over its noise (reduced chi2)
-reciprocity            ``H_ab`` against ``H_ba`` over their noise             non-reciprocal
-                                                                              coupling, a loop
-=====================  ====================================================  ====================
+Each view, what it is, and what it points at:
+
+- **FRF error**: ``sqrt(sum |w (D - M)|^2 / sum |w D|^2)``, ``w = 1/sigma``; anything.
+- **reduced chi2**: ``chi2 / (n - p)``, 1 when the residual is noise; anything.
+- **phase slope**: ``-d arg(D / M) / d omega`` from the weighted mean phase step between
+  adjacent lines; a time delay.
+- **magnitude ratio**: per channel, least squares ``|D| / |M|``; a gain error.
+- **modal residuals**: identified data modes paired with the model's (MAC): frequency and
+  damping errors, MAC, modal complexity (MPC: 1 for a real mode); structural changes
+  (mass, stiffness, concentrated damping).
+- **level dependence**: for tests with the same channels, the difference of their FRFs
+  over its noise (reduced chi2); a nonlinearity.
+- **reciprocity**: ``H_ab`` against ``H_ba`` over their noise; non-reciprocal coupling,
+  a loop.
 """
 
 from __future__ import annotations

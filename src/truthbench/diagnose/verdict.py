@@ -6,9 +6,7 @@ When the runner-up of a step explains the data almost as well as the effect chos
 against the noise: each candidate sensor (a translation in a measured direction at every
 node, driven by the data's inputs) and each candidate excitation point (at every node,
 read by the data's sensors) is scored by
-
-    separation = sum_f |H_A(f) - H_B(f)|^2 / sigma(f)^2
-
+``separation = sum_f |H_A(f) - H_B(f)|^2 / sigma(f)^2``
 over the data's lines, ``sigma`` the data's own relative noise (their median
 ``sigma / (|H| + median |H|)`` applied to the new channel's response). The best sensor
 and excitation point are named with their separation and its ratio to what the
