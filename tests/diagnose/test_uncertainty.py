@@ -12,7 +12,14 @@ from truthbench.campaign.runner import simulate_one
 from truthbench.campaign.spec import parse_campaign
 from truthbench.diagnose.candidates import Candidate
 from truthbench.diagnose.core import DiagnoseSettings, _Diagnosis
-from truthbench.diagnose.fit import covariance, fit, with_offsets
+from truthbench.diagnose.fit import (
+    correlated_noise,
+    covariance,
+    fit,
+    line_correlation,
+    stack,
+    with_offsets,
+)
 from truthbench.effects import EFFECTS, effect_from_inject
 
 from .conftest import ROOT
@@ -32,6 +39,33 @@ def test_the_covariance_survives_columns_thirteen_decades_apart():
     # a direction the data do not determine gets no variance, not a huge one
     flat = covariance(np.column_stack([J[:, 0], 2 * J[:, 0]]), chi2=398.0, n=400)
     assert np.all(np.isfinite(flat))
+
+
+def test_correlated_noise_is_the_sandwich_of_a_dense_circular_covariance():
+    """``J'J + X`` (:func:`correlated_noise`) against ``2 J' C J`` with ``C`` the dense
+    covariance of the stacked real and imaginary parts of circular noise whose complex
+    correlation between values k lines apart is ``c_k`` (built by numpy, element by
+    element): ``C = 0.5 [[Re K, -Im K], [Im K, Re K]]``, ``K`` Hermitian Toeplitz per
+    channel."""
+    rng = np.random.default_rng(7)
+    n_lines, stride, p = 40, 3, 3  # 40 lines of 3 channel pairs, interleaved
+    N = n_lines * stride
+    G = rng.standard_normal((N, p)) + 1j * rng.standard_normal((N, p))
+    z = rng.standard_normal(N) + 1j * rng.standard_normal(N)
+    base = np.arange(N)
+    neighbours = tuple((base[: N - k * stride], base[k * stride:]) for k in (1, 2))
+    c = line_correlation(z, neighbours)
+    K = np.eye(N, dtype=complex)
+    for k, ck in enumerate(c, start=1):
+        for i in range(N - k * stride):
+            K[i, i + k * stride] = ck
+            K[i + k * stride, i] = np.conj(ck)
+    C = 0.5 * np.block([[K.real, -K.imag], [K.imag, K.real]])
+    J = stack(G)
+    exact = 2 * J.T @ C @ J
+    got = J.T @ J + correlated_noise(G, z, neighbours)
+    scale = np.abs(J).T @ np.abs(J)  # the sums' magnitude: round-off of N terms
+    np.testing.assert_allclose(got, exact, rtol=0, atol=1e-13 * N * scale.max())
 
 
 @pytest.mark.slow
