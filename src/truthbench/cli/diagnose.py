@@ -13,6 +13,7 @@ def _cmd_diagnose(args) -> int:
 
     from truthbench.campaign.model_file import load_model
     from truthbench.diagnose import diagnose
+    from truthbench.diagnose.result import where
     from truthbench.io import load_measurements
     from truthbench.report.format import pct, sig
 
@@ -51,13 +52,13 @@ def _cmd_diagnose(args) -> int:
     for f in diag.found:
         fitted = ", ".join(f"{k} = {sig(v)}" + (f" +- {sig(f.std[k], 2)}" if holds else "")
                            for k, v in f.fitted.items())
-        where = _where(f.options)
+        place = where(f.options)
         if f.x_m is not None:
-            where += f" (x = {sig(f.x_m, 4)} m)"
-        print(f"found: {f.effect} ({where}): {fitted}; delta BIC {sig(f.delta_bic)}")
+            place += f" (x = {sig(f.x_m, 4)} m)"
+        print(f"found: {f.effect} ({place}): {fitted}; delta BIC {sig(f.delta_bic)}")
         for a in f.alternatives:
             alt = ", ".join(f"{k} = {sig(v)}" for k, v in a.parameters.items())
-            print(f"   or: {a.effect} ({_where(a.options)}): {alt}; delta BIC "
+            print(f"   or: {a.effect} ({where(a.options)}): {alt}; delta BIC "
                   f"{sig(a.delta_bic)}")
     if diag.found and not holds:
         print(f"(no +- stated: the final residual is {sig(diag.noise_ratio, 3)} times the "
@@ -67,7 +68,7 @@ def _cmd_diagnose(args) -> int:
     for effect, reason in diag.not_tried:
         print(f"not tried: {effect}: {reason}")
     for f in diag.dropped:
-        print(f"dropped: {f.effect} ({_where(f.options)}): no longer significant after a "
+        print(f"dropped: {f.effect} ({where(f.options)}): no longer significant after a "
               f"later finding")
     print(f"FRF error (noise-weighted relative RMS): {pct(100 * diag.frf_error_before)} % "
           f"before, {pct(100 * diag.frf_error_after)} % after; reduced chi2 "
@@ -81,8 +82,6 @@ def _cmd_diagnose(args) -> int:
     return 0
 
 
-def _where(options) -> str:
-    return ", ".join(f"{k} {v}" for k, v in options.items()) or "the whole structure"
 
 
 def register(subparsers) -> None:

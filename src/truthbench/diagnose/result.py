@@ -124,8 +124,8 @@ class Diagnosis:
             return "nothing missing"
         parts = []
         for f in self.found:
-            names = [f.effect + (f" ({_where(f.options)})" if f.options else "")] + [
-                a.effect + (f" ({_where(a.options)})" if a.options else "")
+            names = [f.effect + (f" ({where(f.options)})" if f.options else "")] + [
+                a.effect + (f" ({where(a.options)})" if a.options else "")
                 for a in f.alternatives]
             parts.append(" or ".join(names))
         return "; ".join(parts)
@@ -222,13 +222,13 @@ class Diagnosis:
             raise ValueError(f"table must be one of {', '.join(TABLES)}; got {table!r}")
         if table == "found":
             holds = self.uncertainty_holds
-            return pd.DataFrame([{"effect": f.effect, "location": _where(f.options),
+            return pd.DataFrame([{"effect": f.effect, "location": where(f.options, "-"),
                                   "x_m": f.x_m,
                                   **{f"{k}": v for k, v in f.parameters.items()},
                                   **{f"std {k}": (v if holds else float("nan"))
                                      for k, v in f.std.items()},
                                   "delta_bic": f.delta_bic,
-                                  "or": "; ".join(f"{a.effect} ({_where(a.options)})"
+                                  "or": "; ".join(f"{a.effect} ({where(a.options, '-')})"
                                                   for a in f.alternatives)}
                                  for f in self.found])
         if table == "checks":
@@ -302,5 +302,7 @@ class Diagnosis:
         return plot_diagnosis(self, kind, ax=ax, test=test)
 
 
-def _where(options: dict) -> str:
-    return ", ".join(f"{k} {v}" for k, v in options.items()) or "-"
+def where(options: dict, empty: str = "the whole structure") -> str:
+    """An effect's place in words (``"station n12, direction z"``), ``empty`` for an
+    effect with no place (a global one); the command line and the report use it too."""
+    return ", ".join(f"{k} {v}" for k, v in options.items()) or empty

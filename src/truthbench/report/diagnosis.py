@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from truthbench.diagnose.result import where
 from truthbench.report.format import markdown, pct, sig, table
 from truthbench.report.html import write_html
 
@@ -22,8 +23,6 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
 
 
-def _where(options: dict) -> str:
-    return ", ".join(f"{k} {v}" for k, v in options.items()) or "the whole structure"
 
 
 def _value(v: float, s: float | None = None) -> str:
@@ -67,8 +66,8 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
         params = ", ".join(f"{k} = {_value(v, f.std.get(k) if holds else None)}"
                            for k, v in f.fitted.items())
         effect = ", ".join(f"{k} = {sig(v)}" for k, v in f.parameters.items())
-        where = _where(f.options) + ("" if f.x_m is None else f" (x = {sig(f.x_m, 4)} m)")
-        line = (f"- **{f.effect}** at {where}: {params} (effect parameters: {effect}); "
+        place = where(f.options) + ("" if f.x_m is None else f" (x = {sig(f.x_m, 4)} m)")
+        line = (f"- **{f.effect}** at {place}: {params} (effect parameters: {effect}); "
                 f"delta BIC {sig(f.delta_bic)}")
         for a in f.alternatives:
             alt = ", ".join(f"{k} = {sig(v)}" for k, v in a.parameters.items())
@@ -76,7 +75,7 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
                      f" (the margin {sig(diag.settings.ambiguity_margin)} grown to "
                      f"{sig(a.margin)}: the residual is model error, correlated across "
                      f"lines, and holds fewer independent values than it has lines)")
-            line += (f"\n- **or {a.effect}** at {_where(a.options)} ({alt}): delta BIC "
+            line += (f"\n- **or {a.effect}** at {where(a.options)} ({alt}): delta BIC "
                      f"{sig(a.delta_bic)}, within the margin of it{grown}: these data "
                      f"cannot tell the two apart")
         out.append(line)
@@ -101,7 +100,7 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
     if diag.dropped:
         out += ["", "Dropped after a later finding explained the data better "
                 "(backward elimination): " + "; ".join(
-                    f"{f.effect} at {_where(f.options)} (delta BIC {sig(f.delta_bic)} "
+                    f"{f.effect} at {where(f.options)} (delta BIC {sig(f.delta_bic)} "
                     f"without it)" for f in diag.dropped)]
     out += ["", "## Error before and after", "",
             "The FRF error is the noise-weighted relative RMS of the residual over every "
