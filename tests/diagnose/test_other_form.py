@@ -147,3 +147,21 @@ def test_the_mesh_check_refines_a_too_coarse_model_and_says_so():
     assert "refined from 8" in diag.mesh.summary()
     assert diag.found == ()
     assert np.isfinite(diag.frf_error_after)
+
+
+@pytest.mark.slow
+def test_a_long_delay_beside_a_mass_are_both_found(tube):
+    """A 1.7 ms delay (11 rad at the band's top, beyond a first-order screen from zero)
+    beside a 17 g mass between nodes: the complex baseline cannot follow that phase (its
+    best is a model near zero), so the delay is judged by its matched-delay profile on
+    the magnitude fit, refitted from there, and the mass found after it, placed between
+    the nodes before it is weighed against a joint. Before, nothing was found in such
+    data."""
+    data, truth = other_form(tube, Injected("time_delay", "delay_s", 1.7e-3, {}, None),
+                             Injected("added_mass", "mass_kg", 0.017, {}, 0.63))
+    diag = _diagnose(tube, data)
+    found = {f.effect: f for f in diag.found}
+    assert set(found) == {"time_delay", "added_mass"}
+    assert found["time_delay"].parameters["delay_s"] == pytest.approx(1.7e-3, rel=0.01)
+    assert found["added_mass"].parameters["mass_kg"] == pytest.approx(0.017, rel=0.1)
+    assert found["added_mass"].x_m == pytest.approx(truth.placed[1].x_m, abs=0.02)

@@ -79,10 +79,12 @@ from truthbench.diagnose.search import (
     PHASE_EFFECTS,
     REFIT_ERRORS,
     Refit,
+    accepted_lag,
     Tried,
     adapted,
     bounds_ok,
     data_delay,
+    delay_drop,
     delta_bic,
     fitted_own,
     full_refit,
@@ -93,7 +95,13 @@ from truthbench.diagnose.search import (
     terms_of,
 )
 from truthbench.diagnose.settings import DiagnoseSettings
-from truthbench.diagnose.verdict import Alternative, Measurement, ambiguous, measurements
+from truthbench.diagnose.verdict import (
+    Alternative,
+    Measurement,
+    ambiguous,
+    measurements,
+    parsimonious,
+)
 from truthbench.errors import IdentifiabilityError, ModelError
 from truthbench.measure.frfdata import FRFData
 from truthbench.measure.leakage import Estimator
@@ -386,11 +394,17 @@ class _Diagnosis(_Placement):
                        {"max_iterations": s.max_iterations, "tolerance": s.tolerance},
                        extra)
 
-    def baseline(self, problem: Problem, start=None) -> tuple[Problem, Fit, Fit]:
+    def baseline(self, problem: Problem, structural=None) -> tuple[Problem, Fit, Fit]:
         """The declared parameters fitted: (problem with the baseline's leakage offsets,
-        the baseline, the magnitude fit the phase signatures are read against)."""
-        structural = fit_magnitude(problem, start=self.level_start(problem)
-                                   if start is None else start)
+        the baseline, the magnitude fit the phase signatures are read against).
+
+        ``structural``: a magnitude fit already made (on a coarser mesh, before a mode
+        was modelled in), which is kept: a mode modelled in takes its residues from the
+        complex residual, which a phase error (a delay of many radians) fills across
+        the band, and a magnitude fit through it would carry that error."""
+        if structural is None:
+            structural = fit_magnitude(problem, start=self.level_start(problem))
+        self.structural = structural
         current = fit(problem, start=structural)
         problem = with_offsets(problem, current)
         current = fit(problem, start=current.theta)
@@ -418,7 +432,7 @@ class _Diagnosis(_Placement):
         the modes modelled in), or the one before where that refit fails."""
         try:
             fresh, refitted, _ = self.baseline(self.problem(problem.plant, tests),
-                                               start=baseline.theta)
+                                               self.structural)
         except REFIT_ERRORS:
             return before_problem, baseline
         return fresh, refitted
@@ -500,7 +514,7 @@ class _Diagnosis(_Placement):
                     refitted = fit(problem_f, refitted.terms, start=refitted.theta)
                     sig_f = None
                 else:
-                    problem_f, refitted, sig_f = self.baseline(fresh, start=theta)
+                    problem_f, refitted, sig_f = self.baseline(fresh, self.structural)
             except REFIT_ERRORS:
                 adequate = False  # the refined model cannot be refitted: kept as it was
                 break
@@ -533,7 +547,7 @@ class _Diagnosis(_Placement):
                     refitted = fit(problem_m, refitted.terms, start=refitted.theta)
                     sig_m = None
                 else:
-                    problem_m, refitted, sig_m = self.baseline(fresh, start=current.theta)
+                    problem_m, refitted, sig_m = self.baseline(fresh, self.structural)
             except REFIT_ERRORS:
                 # the model with the mode in cannot be refitted: left as it was
                 self.extra_poles = self.extra_poles[:-1]
@@ -582,9 +596,12 @@ class _Diagnosis(_Placement):
                 before_problem, baseline = self.rebaseline(problem, tests, before_problem,
                                                            baseline)
                 continue
+            margin = self.margin(chosen.problem, chosen.fit)
+            chosen = parsimonious(finals, chosen, margin,
+                                  lambda r: fitted_own(r.candidate, r.fit.theta),
+                                  max(float(t.freq_hz.max()) for t in tests))
             accepted.append(chosen.candidate)
             current, problem = chosen.fit, chosen.problem
-            margin = self.margin(problem, chosen.fit)
             runner = ambiguous(finals, chosen, margin)
             if runner is not None:
                 alternatives[chosen.candidate.label] = (self._alternative(runner, margin),)
@@ -654,32 +671,42 @@ class _Diagnosis(_Placement):
                                     sc.candidate.options, sc.drop, status="at the noise level")
                               for sc in screened)
             return None, []
+        # candidates a residual signature points at start where it points (a delay from
+        # the matched-delay profile, a gain from the magnitude ratio), with the declared
+        # parameters of the magnitude fit at the first step: a first-order score from
+        # zero misjudges a phase error of several radians, so the phase candidates are
+        # judged by the matched delay's exact drop too
+        base = signature if step == 0 and signature is not None else current
+        views = residual_views(tests, _parts(tests, base.model), len(base.names))
+        delay, phase_drop = None, -np.inf
+        if any(sc.candidate.effect in PHASE_EFFECTS for sc in screened):
+            # read against the model without the modes it lacks: their residues are
+            # projected from the data, so near them the model holds the data's own phase
+            plain = problem if problem.extra is None else replace(problem, extra=None)
+            model = np.asarray(plain.predict(base.terms)(base.theta))
+            delay = data_delay(tests, model, views)
+            phase_drop = delay_drop(plain, tests, model, delay)
+            # a second phase effect beside an accepted one starts at half its lag: at
+            # zero a low-pass's and a delay's columns are the same (-j omega), and the
+            # accepted lag may hold the sum of both
+            delay = max(delay, 0.5 * accepted_lag(accepted, current.theta))
+        top = max(screened[0].drop, phase_drop)
         # nothing to refit when not even the best screened drop, three times over, would
         # be significant (exact profiles and line searches are lower bounds of what a
         # refit reaches; the factor covers the first-order scores' error)
         k = max(len(sc.candidate.fitted) for sc in screened)
-        if delta_bic(n, current.chi2, max(current.chi2 - 3 * screened[0].drop,
-                                          1e-12 * current.chi2), 1) - (k - 1) * np.log(n) \
-                < threshold:
+        if delta_bic(n, current.chi2, max(current.chi2 - 3 * top, 1e-12 * current.chi2),
+                     1) - (k - 1) * np.log(n) < threshold:
             self.tried.extend(Tried(step, sc.candidate.label, sc.candidate.effect,
                                     sc.candidate.options, sc.drop) for sc in screened)
             return None, []
         results: dict[str, Refit | None] = {}
         chosen = shortlist(screened, best=s.refits, factor=3.0)
-        # candidates a residual signature points at start where it points (a delay from
-        # the matched-delay profile, a gain from the magnitude ratio), with the declared
-        # parameters of the magnitude fit at the first step: a first-order score from
-        # zero misjudges a phase error of several radians
-        base = signature if step == 0 and signature is not None else current
-        views = residual_views(tests, _parts(tests, base.model), len(base.names))
-        delay = None
-        top = screened[0].drop
         for sc in screened:
             c = sc.candidate
-            if sc.drop < top / 10 and sc not in chosen:
+            drop = max(sc.drop, phase_drop) if c.effect in PHASE_EFFECTS else sc.drop
+            if drop < top / 10 and sc not in chosen:
                 continue
-            if c.effect in PHASE_EFFECTS and delay is None:
-                delay = data_delay(tests, base.model, views)
             start = signature_start(c, views, tests, base.model, delay)
             if start is not None:
                 results[c.label] = refit(problem, current, accepted, c, sc.drop, start, refs,
@@ -740,9 +767,13 @@ class _Diagnosis(_Placement):
                            f"{100 * s.excess_share:g} %"))
         if not finals:
             return None, finals
-        chosen = max(finals, key=lambda r: r.delta_bic)
-        chosen = self.refine_position(problem, current, accepted, chosen, n, step, tests)
-        return chosen, finals
+        # every located contender is placed between the nodes before the choice: a mass
+        # between two nodes, held at the nearer one, loses to a joint's two parameters
+        top = max(r.delta_bic for r in finals)
+        finals = [self.refine_position(problem, current, accepted, r, n, step, tests)
+                  if r.candidate.node is not None and r.delta_bic >= 0.5 * top else r
+                  for r in finals]
+        return max(finals, key=lambda r: r.delta_bic), finals
 
     def backward(self, problem, current, accepted, n, step, threshold):
         """Drop the effects that are not significant in the model with the others (each

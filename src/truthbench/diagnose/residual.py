@@ -106,24 +106,47 @@ def phase_slope_delay(freq_hz: np.ndarray, D: np.ndarray, M: np.ndarray,
     return 0.0 if acc == 0 else float(-np.angle(acc) / (2 * np.pi * step))
 
 
+#: The longest delay the matched-delay profile looks at, in periods of the band's top
+#: frequency (64 samples at twice that rate: a sigma-delta converter's filter and a
+#: controller's frame) and as a share of the record (beyond it the estimator's bias
+#: dominates).
+DELAY_PERIODS = 64.0
+DELAY_RECORD_SHARE = 0.05
+
+
 def matched_delay(freq_hz: np.ndarray, D: np.ndarray, M: np.ndarray, w: np.ndarray,
-                  tau0: float, n_grid: int = 400) -> float:
+                  tau0: float) -> float:
     """The delay that best explains ``D ~ M exp(-j omega tau)``: the maximum of
     ``Re sum w^2 conj(D) M exp(-j omega tau)`` (the chi2 profile of a pure delay with the
-    model held) over ``0 <= tau <= max(3 tau0, 4 / (2 pi f_max))``, refined by a parabola
-    through the best grid point and its neighbours, s. Arrays (n_lines, ...)."""
+    model held), s.
+
+    The profile is sampled at an eighth of the top line's period, over
+    ``0 <= tau <= max(3 tau0, min(DELAY_PERIODS / f_max, DELAY_RECORD_SHARE / df))``
+    (``df`` the line spacing), and refined by a parabola through the best sample and its
+    neighbours. Arrays (n_values, ...) along the values, ``freq_hz`` each value's line;
+    values on one line are summed before the profile is taken.
+    """
     f = np.asarray(freq_hz, dtype=float)
     z = (np.conj(D) * M * w**2).reshape(f.size, -1).sum(axis=1)
-    w_rad = 2 * np.pi * f
-    top = max(3 * max(tau0, 0.0), 4.0 / w_rad.max())
-    taus = np.linspace(0.0, top, n_grid)
-    c = np.real(np.exp(-1j * np.outer(taus, w_rad)) @ z)
+    lines, where = np.unique(f, return_inverse=True)
+    z = (np.bincount(where, z.real, lines.size)
+         + 1j * np.bincount(where, z.imag, lines.size))
+    f_max = float(lines.max())
+    if f_max <= 0:
+        return 0.0
+    df = float(np.median(np.diff(lines))) if lines.size > 1 else f_max
+    top = max(3 * max(tau0, 0.0), min(DELAY_PERIODS / f_max, DELAY_RECORD_SHARE / df))
+    dt = 1.0 / (8 * f_max)
+    taus = np.arange(int(np.ceil(top / dt)) + 1) * dt
+    w_rad = 2 * np.pi * lines
+    c = np.concatenate([np.real(np.exp(-1j * np.outer(taus[k:k + 256], w_rad)) @ z)
+                        for k in range(0, taus.size, 256)])
     k = int(np.argmax(c))
-    if 0 < k < n_grid - 1:
+    if 0 < k < taus.size - 1:
         a, b, d = c[k - 1], c[k], c[k + 1]
         den = a - 2 * b + d
         if den < 0:
-            return float(taus[k] + 0.5 * (a - d) / den * (taus[1] - taus[0]))
+            return float(taus[k] + 0.5 * (a - d) / den * dt)
     return float(taus[k])
 
 

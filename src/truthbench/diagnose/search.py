@@ -144,6 +144,17 @@ def terms_of(accepted: Sequence[Candidate], theta: Mapping[str, float]) -> tuple
     return tuple(x for a in accepted for x in a.terms(start=fitted_own(a, theta)))
 
 
+#: Phase candidates' parameters that lag the phase by ``omega x`` at low frequency (a
+#: delay, a first-order lag's time constant, the ``b`` of a second-order low-pass), s.
+LAG_PARAMETERS = ("delay_s", "tau_s", "b_s")
+
+
+def accepted_lag(accepted: Sequence[Candidate], theta: Mapping[str, float]) -> float:
+    """The low-frequency phase lag (s) of the accepted phase effects at ``theta``."""
+    return sum(v for a in accepted if a.effect in PHASE_EFFECTS
+               for k, v in fitted_own(a, theta).items() if k in LAG_PARAMETERS)
+
+
 def signature_start(c: Candidate, views: Residual, tests, model, delay: float | None
                     ) -> np.ndarray | None:
     """Starting values a residual signature gives a candidate, or None: the matched
@@ -155,7 +166,7 @@ def signature_start(c: Candidate, views: Residual, tests, model, delay: float | 
             return None
         # a delay, a first-order lag's time constant, or the b (s) of a second-order
         # low-pass 1 / (a s^2 + b s + 1): all lag the phase by omega tau at low frequency
-        return np.array([delay if p.name in ("delay_s", "tau_s", "b_s") else p.start
+        return np.array([delay if p.name in LAG_PARAMETERS else p.start
                          for p in c.fitted])
     if c.effect == "channel_gain":
         ratios = [ch.magnitude_ratio for ch in views.channels
@@ -167,13 +178,26 @@ def signature_start(c: Candidate, views: Residual, tests, model, delay: float | 
     return None
 
 
+def _lines(tests) -> np.ndarray:
+    """Every value's frequency in the problem's order (test, line, output, input), Hz."""
+    return np.concatenate([np.broadcast_to(t.freq_hz[:, None, None], t.H.shape).ravel()
+                           for t in tests])
+
+
 def data_delay(tests, model: np.ndarray, views: Residual) -> float:
     """The matched delay of the data against ``model`` (every test), s."""
-    f = np.concatenate([np.broadcast_to(t.freq_hz[:, None, None], t.H.shape).ravel()
-                        for t in tests])
     data = np.concatenate([t.H.ravel() for t in tests])
     w = np.concatenate([1.0 / t.sigma.ravel() for t in tests])
-    return matched_delay(f, data, model, w, views.delay_s)
+    return matched_delay(_lines(tests), data, model, w, views.delay_s)
+
+
+def delay_drop(problem, tests, model: np.ndarray, delay: float) -> float:
+    """The chi2 drop of delaying ``model`` by ``delay`` (s): an exact profile point of a
+    pure delay against the model it is read against, which a phase candidate's refit
+    started there reaches at least, where a first-order score from zero delay sees
+    nothing (a phase error of radians)."""
+    return problem.chi2(model) - problem.chi2(
+        model * np.exp(-2j * np.pi * _lines(tests) * delay))
 
 
 def line_search(problem, current, accepted, c, drop, guess, sizes):

@@ -211,4 +211,45 @@ def ambiguous(finals: Sequence, chosen, margin: float, *, nodes_apart: int = 2):
     return best
 
 
-__all__ = ["Alternative", "Measurement", "ambiguous", "measurements"]
+#: Effects that contain simpler ones as a limit: a second-order low-pass with a large
+#: damping ratio has one pole in the band and the other far above it, a first-order one.
+NESTED = {"actuator_resonance": ("actuator_dynamics",), "sensor_dynamics": ("sensor_lag",)}
+
+#: A second-order low-pass whose upper real pole lies beyond this many times the band's
+#: top frequency is seen by the data as a first-order one: the far pole's own lag there
+#: (at most atan(1/10), 6 degrees) is what a fraction of a sample of delay or another
+#: estimator gives, not a resolved pole.
+FAR_POLE = 10.0
+
+
+def far_pole_hz(a_s2: float, b_s: float) -> float:
+    """The upper of the two real poles of ``1 / (a s^2 + b s + 1)``, Hz: ``inf`` at
+    ``a = 0`` (first order), ``nan`` when the poles are complex (a resonance)."""
+    if a_s2 <= 0:
+        return np.inf
+    disc = b_s * b_s - 4 * a_s2
+    if disc < 0:
+        return np.nan
+    return float((b_s + np.sqrt(disc)) / (2 * a_s2) / (2 * np.pi))
+
+
+def parsimonious(finals: Sequence, chosen, margin: float, own, f_max_hz: float):
+    """``chosen``, or the simpler effect it contains (:data:`NESTED`), when that was
+    refitted and either explains the data within ``margin`` of delta BIC or ``chosen``'s
+    fit is overdamped with its upper pole beyond :data:`FAR_POLE` times ``f_max_hz``.
+    Of two nested explanations the data cannot tell apart, the one with fewer
+    parameters is stated first (the other stays the runner-up). ``own(refit)`` gives a
+    refit's own fitted values (``a_s2``, ``b_s`` for a second-order one)."""
+    simpler = [r for r in finals if r.physical
+               and r.candidate.effect in NESTED.get(chosen.candidate.effect, ())]
+    if not simpler:
+        return chosen
+    values = own(chosen)
+    unresolved = far_pole_hz(values.get("a_s2", 0.0), values.get("b_s", 0.0)) \
+        > FAR_POLE * f_max_hz
+    close = [r for r in simpler if unresolved or chosen.delta_bic - r.delta_bic <= margin]
+    return max(close, key=lambda r: r.delta_bic, default=chosen)
+
+
+__all__ = ["FAR_POLE", "NESTED", "Alternative", "Measurement", "ambiguous", "far_pole_hz",
+           "measurements", "parsimonious"]

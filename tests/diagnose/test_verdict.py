@@ -1,0 +1,48 @@
+"""The verdict's choice between nested explanations."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from truthbench.diagnose.verdict import far_pole_hz, parsimonious
+
+
+@pytest.mark.parametrize("a, b", [(1e-8, 1e-3), (2.5e-9, 1e-4), (1e-10, 2.1e-5)])
+def test_the_far_pole_is_the_upper_real_root(a, b):
+    """Against numpy's roots of ``a s^2 + b s + 1``."""
+    roots = np.roots([a, b, 1.0])
+    assert np.all(np.isreal(roots))
+    assert far_pole_hz(a, b) == pytest.approx(np.abs(roots).max() / (2 * np.pi), rel=1e-12)
+
+
+def test_a_resonance_has_no_far_pole_and_a_first_order_one_is_infinitely_far():
+    assert np.isnan(far_pole_hz(1e-8, 1e-5))  # b^2 < 4a: complex poles
+    assert far_pole_hz(0.0, 1e-3) == np.inf
+
+
+def _refit(effect, dbic, **own):
+    return SimpleNamespace(candidate=SimpleNamespace(effect=effect), delta_bic=dbic,
+                           physical=True, own=own)
+
+
+def _choose(finals, chosen, margin, f_max=1000.0):
+    return parsimonious(finals, chosen, margin, lambda r: r.own, f_max)
+
+
+def test_the_first_order_low_pass_leads_where_the_second_order_pole_is_unresolved():
+    """An overdamped fit whose upper pole is 40 times the band's top: the first-order
+    fit is stated first, whatever the delta BIC between them; a pole within the band's
+    reach or a resonance keeps the second order unless the two are within the margin."""
+    w_low, w_far = 2 * np.pi * 786.0, 2 * np.pi * 40_000.0  # poles of the fit
+    far = _refit("actuator_resonance", 88322.0, a_s2=1 / (w_low * w_far),
+                 b_s=1 / w_low + 1 / w_far)
+    first = _refit("actuator_dynamics", 87183.0)
+    twin = _refit("sensor_dynamics", 88322.0)
+    assert _choose([far, twin, first], far, 10.0) is first
+    w_near = 2 * np.pi * 3000.0  # within FAR_POLE (10) times the band's top
+    near = _refit("actuator_resonance", 88322.0, a_s2=1 / (w_low * w_near),
+                  b_s=1 / w_low + 1 / w_near)
+    assert _choose([near, first], near, 10.0) is near
+    assert _choose([near, first], near, 2000.0) is first  # within the margin
+    assert _choose([far, twin], far, 10.0) is far  # no simpler one refitted
