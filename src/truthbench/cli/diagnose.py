@@ -52,13 +52,11 @@ def _cmd_diagnose(args) -> int:
     for f in diag.found:
         fitted = ", ".join(f"{k} = {sig(v)}" + (f" +- {sig(f.std[k], 2)}" if holds else "")
                            for k, v in f.fitted.items())
-        place = where(f.options)
-        if f.x_m is not None:
-            place += f" (x = {sig(f.x_m, 4)} m)"
-        print(f"found: {f.effect} ({place}): {fitted}; delta BIC {sig(f.delta_bic)}")
+        print(f"found: {f.effect} ({where(f.options, x_m=f.x_m)}): {fitted}; delta BIC "
+              f"{sig(f.delta_bic)}")
         for a in f.alternatives:
             alt = ", ".join(f"{k} = {sig(v)}" for k, v in a.parameters.items())
-            print(f"   or: {a.effect} ({where(a.options)}): {alt}; delta BIC "
+            print(f"   or: {a.effect} ({where(a.options, x_m=a.x_m)}): {alt}; delta BIC "
                   f"{sig(a.delta_bic)}")
     if diag.found and not holds:
         print(f"(no +- stated: the final residual is {sig(diag.noise_ratio, 3)} times the "

@@ -276,16 +276,16 @@ def scan_extra_mode(problem: Problem, current: Fit, candidates_hz: np.ndarray):
         per_out = None
         for k, (t, r, W) in enumerate(pieces):
             s = 2j * np.pi * t.freq_hz + t.decay_rad_s
-            bases = {p: mode_basis(s, candidates_hz, zeta, p)
-                     for p in {_POWERS[x.quantity] for x in t.sensors}}
             drops = np.zeros((candidates_hz.size, len(t.sensors)))
-            for o, x in enumerate(t.sensors):
-                g = bases[_POWERS[x.quantity]]
-                for i in range(len(t.actuators)):
-                    b = W[:, o, i, None] * g  # (n_f, n_cand)
-                    num = b.conj().T @ r[:, o, i]
-                    den = np.sum(np.abs(b) ** 2, axis=0)
-                    drops[:, o] += np.abs(num) ** 2 / np.maximum(den, 1e-300)
+            for p in {_POWERS[x.quantity] for x in t.sensors}:
+                g = mode_basis(s, candidates_hz, zeta, p)  # (n_f, n_cand)
+                rows = [o for o, x in enumerate(t.sensors) if _POWERS[x.quantity] == p]
+                # every transfer function of this power at once, with b = W g:
+                # <b, r> = g^H (W r) and <b, b> = |g|^2' W^2
+                num = g.conj().T @ (W[:, rows] * r[:, rows]).reshape(s.size, -1)
+                den = (np.abs(g) ** 2).T @ (W[:, rows] ** 2).reshape(s.size, -1)
+                d = np.abs(num) ** 2 / np.maximum(den, 1e-300)
+                drops[:, rows] = d.reshape(-1, len(rows), W.shape[2]).sum(axis=2)
             total += drops.sum(axis=1)
             if k == 0:
                 per_out = drops

@@ -79,8 +79,8 @@ from truthbench.diagnose.search import (
     PHASE_EFFECTS,
     REFIT_ERRORS,
     Refit,
-    accepted_lag,
     Tried,
+    accepted_lag,
     adapted,
     bounds_ok,
     data_delay,
@@ -839,8 +839,11 @@ class _Diagnosis(_Placement):
     def _alternative(self, r: Refit, margin: float) -> Alternative:
         c = r.candidate
         own = fitted_own(c, r.fit.theta)
+        station = c.options.get("station")
+        x_m = None if station is None or r.problem is None else float(
+            r.problem.plant.station_coordinates_m(station, self.nominal)[0])
         return Alternative(c.effect, dict(c.options), c.label, c.effect_values(own), own,
-                           r.delta_bic, c.node, margin)
+                           r.delta_bic, c.node, margin, x_m)
 
 
 __all__ = ["DiagnoseSettings", "Found", "Residual", "Tried", "diagnose"]

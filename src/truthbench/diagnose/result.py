@@ -302,7 +302,10 @@ class Diagnosis:
         return plot_diagnosis(self, kind, ax=ax, test=test)
 
 
-def where(options: dict, empty: str = "the whole structure") -> str:
-    """An effect's place in words (``"station n12, direction z"``), ``empty`` for an
-    effect with no place (a global one); the command line and the report use it too."""
-    return ", ".join(f"{k} {v}" for k, v in options.items()) or empty
+def where(options: dict, empty: str = "the whole structure", x_m: float | None = None
+          ) -> str:
+    """An effect's place in words (``"station n12, direction z (x = 0.6 m)"``, with its
+    coordinate ``x_m`` where it has one), ``empty`` for an effect with no place (a global
+    one); the command line and the report use it too."""
+    place = ", ".join(f"{k} {v}" for k, v in options.items()) or empty
+    return place if x_m is None else f"{place} (x = {x_m:.4g} m)"

@@ -42,6 +42,9 @@ class Alternative:
     margin : float
         The margin of delta BIC it was within: ``ambiguity_margin``, grown where the
         residual is model error (:meth:`~truthbench.diagnose.core._Diagnosis.margin`).
+    x_m : float or None
+        Where along the article it was placed, m (a station between nodes, which the
+        diagnosis's final mesh need not have); None for an effect with no place.
     """
 
     effect: str
@@ -52,6 +55,7 @@ class Alternative:
     delta_bic: float
     node: int | None
     margin: float = float("nan")
+    x_m: float | None = None
 
 
 @dataclass(frozen=True)

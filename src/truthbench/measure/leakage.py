@@ -205,6 +205,29 @@ def expected_h1(freq_hz, frf: Callable[[np.ndarray], np.ndarray], kernel: Leakag
         NaN at a line whose kernel meets no input line.
     """
     f = np.asarray(freq_hz, dtype=float)
+    fine, on, S, norm = _smoothing(f, kernel, band_hz)
+    Hf = np.zeros((fine.size,) + np.shape(frf(fine[:1]))[1:], dtype=complex)
+    if on.any():
+        Hf[on] = frf(fine[on])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = (S @ Hf.reshape(fine.size, -1)) / norm[:, None]
+    return out.reshape((f.size,) + Hf.shape[1:])
+
+
+#: Smoothing operators kept (a fit predicts the same lines through the same kernel
+#: hundreds of times; the operator depends on the lines, the kernel and the band only).
+_SMOOTHING_CACHE_SIZE = 16
+_smoothing_cache: dict = {}
+
+
+def _smoothing(f: np.ndarray, kernel: LeakageKernel, band_hz):
+    """``(fine lines (Hz), which carry input, S, row sums of S)``: the sparse operator
+    (n_freq, n_fine) that :func:`expected_h1` applies, for lines ``f``."""
+    key = (f.tobytes(), kernel.delta_hz, kernel.offsets.tobytes(), kernel.weights.tobytes(),
+           None if band_hz is None else tuple(map(float, band_hz)))
+    hit = _smoothing_cache.get(key)
+    if hit is not None:
+        return hit
     idx = np.rint(f / kernel.delta_hz).astype(np.int64)
     if np.any(np.abs(idx * kernel.delta_hz - f) > 1e-6 * kernel.delta_hz):
         raise ValueError("expected_h1: the lines are not on the kernel's grid (multiples "
@@ -215,14 +238,18 @@ def expected_h1(freq_hz, frf: Callable[[np.ndarray], np.ndarray], kernel: Leakag
     if band_hz is not None:
         on &= (fine >= band_hz[0] - 1e-9 * kernel.delta_hz) & \
             (fine <= band_hz[1] + 1e-9 * kernel.delta_hz)
-    Hf = np.zeros((grid.size,) + np.shape(frf(fine[:1]))[1:], dtype=complex)
-    if on.any():
-        Hf[on] = frf(fine[on])
     pos = np.searchsorted(grid, idx[:, None] + kernel.offsets[None, :])  # (n_freq, 2M+1)
     weight = kernel.weights[None, :] * on[pos]
     rows = np.repeat(np.arange(f.size), kernel.offsets.size)
     S = sp.csr_matrix((weight.ravel(), (rows, pos.ravel())), shape=(f.size, grid.size))
     norm = np.asarray(S.sum(axis=1)).ravel()
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = (S @ Hf.reshape(grid.size, -1)) / norm[:, None]
-    return out.reshape((f.size,) + Hf.shape[1:])
+    for a in (fine, on, norm):
+        a.flags.writeable = False
+    hit = (fine, on, S, norm)
+    if len(_smoothing_cache) >= _SMOOTHING_CACHE_SIZE:
+        try:  # the oldest out (another thread may have taken it first)
+            _smoothing_cache.pop(next(iter(_smoothing_cache)), None)
+        except (RuntimeError, StopIteration):
+            pass
+    _smoothing_cache[key] = hit
+    return hit

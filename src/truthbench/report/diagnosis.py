@@ -66,7 +66,7 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
         params = ", ".join(f"{k} = {_value(v, f.std.get(k) if holds else None)}"
                            for k, v in f.fitted.items())
         effect = ", ".join(f"{k} = {sig(v)}" for k, v in f.parameters.items())
-        place = where(f.options) + ("" if f.x_m is None else f" (x = {sig(f.x_m, 4)} m)")
+        place = where(f.options, x_m=f.x_m)
         line = (f"- **{f.effect}** at {place}: {params} (effect parameters: {effect}); "
                 f"delta BIC {sig(f.delta_bic)}")
         for a in f.alternatives:
@@ -75,8 +75,8 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
                      f" (the margin {sig(diag.settings.ambiguity_margin)} grown to "
                      f"{sig(a.margin)}: the residual is model error, correlated across "
                      f"lines, and holds fewer independent values than it has lines)")
-            line += (f"\n- **or {a.effect}** at {where(a.options)} ({alt}): delta BIC "
-                     f"{sig(a.delta_bic)}, within the margin of it{grown}: these data "
+            line += (f"\n- **or {a.effect}** at {where(a.options, x_m=a.x_m)} ({alt}): "
+                     f"delta BIC {sig(a.delta_bic)}, within the margin of it{grown}: these data "
                      f"cannot tell the two apart")
         out.append(line)
     if diag.found:
