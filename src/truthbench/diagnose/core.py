@@ -608,7 +608,8 @@ class _Diagnosis(_Placement):
                 try:
                     measured += measurements(problem, chosen.fit, runner.fit,
                                              (chosen.candidate.label, runner.candidate.label),
-                                             tests, problem.plant)
+                                             tests, problem.plant,
+                                             problem_b=runner.problem)
                 except REFIT_ERRORS:
                     pass
             newest = accepted[-1]

@@ -116,12 +116,14 @@ def _separation(HA: np.ndarray, HB: np.ndarray, rho: float, axis) -> np.ndarray:
 
 
 def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, str],
-                 tests, plant, *, count: int = 1) -> tuple[Measurement, ...]:
+                 tests, plant, *, count: int = 1, problem_b: Problem | None = None
+                 ) -> tuple[Measurement, ...]:
     """The sensor and the excitation point that best separate two fitted models.
 
     Parameters
     ----------
     problem : Problem
+        ``fit_a``'s (and ``fit_b``'s, unless ``problem_b`` is given).
     fit_a, fit_b : Fit
         The two explanations (their effects and parameters).
     labels : (str, str)
@@ -131,6 +133,9 @@ def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, st
         The model's plant (node stations ``n<k>``).
     count : int
         How many of each kind.
+    problem_b : Problem, optional
+        ``fit_b``'s, where it differs (an attachment placed at a station between nodes
+        that only its own plant has).
 
     Returns
     -------
@@ -143,9 +148,9 @@ def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, st
     f = t.freq_hz
     rho = _relative_noise(tests)
     parts = []
-    for fit_ in (fit_a, fit_b):
-        hw = problem.predictor(fit_.terms).hardware(fit_.theta, t.actuators, t.sensors,
-                                                    test=t.name)
+    for fit_, own in ((fit_a, problem), (fit_b, problem_b or problem)):
+        hw = own.predictor(fit_.terms).hardware(fit_.theta, t.actuators, t.sensors,
+                                                test=t.name)
         parts.append(hw)
     model = parts[0].model
     labels_dof = model.dof_labels
