@@ -515,26 +515,24 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
         for j, big, ac in cluster_terms:
             sel = where[big]
             coef = ac[None, :] * (1.0 + s[:, None] * zeta_over_w[ci[big]][None, :])
-            extra[j] -= np.einsum("fok,fki->foi", Y_k[:, :, sel] * coef[:, None, :],
-                                  X_i[:, sel], optimize=True)
+            extra[j] -= (Y_k[:, :, sel] * coef[:, None, :]) @ X_i[:, sel]
     # the physical damping's terms, s (dPhi^T C Phi + Phi^T C dPhi + Phi^T dC Phi)
     if damp_rows:
         rr = R.size
         Yd, Xd = batch.get(h_yd), batch.get(h_xd)  # (F, n_out, (p + 1) r), (F, ., n_in)
-        YPhiR, PhiRX = Yd[:, :, :rr], Xd[:, :rr]
+        # (F, n_out, r) @ (r, r) @ (F, r, n_in), the parameter-free halves formed once
+        CX = C_RR @ Xd[:, :rr]
+        YC = Yd[:, :, :rr] @ C_RR
         for j in range(p):
             sl = slice((j + 1) * rr, (j + 2) * rr)
-            damp = (np.einsum("for,rq,fqi->foi", Yd[:, :, sl], C_RR, PhiRX, optimize=True)
-                    + np.einsum("for,rq,fqi->foi", YPhiR, C_RR, Xd[:, sl], optimize=True))
-            extra[j] -= s[:, None, None] * damp
+            extra[j] -= s[:, None, None] * (Yd[:, :, sl] @ CX + YC @ Xd[:, sl])
     if dC_rows:
         Yd, Xd = batch.get(h_yc), batch.get(h_xc)
         start = 0
         for j, P_, dC in dC_rows:
             sl = slice(start, start + P_.shape[0])
             start += P_.shape[0]
-            extra[j] -= s[:, None, None] * np.einsum("for,rq,fqi->foi", Yd[:, :, sl], dC,
-                                                     Xd[:, sl], optimize=True)
+            extra[j] -= s[:, None, None] * ((Yd[:, :, sl] @ dC) @ Xd[:, sl])
     first = batch.get(h_first)  # (F, p, n_out, n_in)
     second = batch.get(h_second)  # (F, 2, p, n_out, n_in)
     out = (first - second[:, 0] - s[:, None, None, None] * second[:, 1]).transpose(1, 0, 2, 3)
