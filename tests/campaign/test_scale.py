@@ -155,6 +155,23 @@ def test_worker_counts_and_dask_give_bitwise_identical_stores(small_spec, tmp_pa
     _assert_same(reference, TrialStore(out).consolidate())
 
 
+def test_dask_batches_shrink_as_the_run_ends():
+    """Up to four trials per task while there is much to do, one each at the end: every
+    trial once, and the workers finish together (20 trials on two workers: not 12
+    against 8)."""
+    from truthbench.campaign.engines import batch_size
+
+    for n, workers in ((20, 2), (7, 2), (1000, 3), (1, 4), (5, 1)):
+        left, sizes = n, []
+        while left:
+            sizes.append(batch_size(left, workers, 4))
+            left -= sizes[-1]
+        assert sum(sizes) == n and max(sizes) <= 4 and min(sizes) >= 1
+        assert sizes == sorted(sizes, reverse=True)
+        assert sizes[-workers:] == [1] * min(workers, len(sizes))
+    assert batch_size(0, 2, 4) == 0
+
+
 # ---- a Dask cluster as users run one: scheduler and workers on loopback ---------------
 def _dask(*args, log: Path) -> subprocess.Popen:
     """A ``dask`` command in its own process group, with this tree on the path; its
@@ -247,8 +264,8 @@ def test_a_tcp_cluster_gives_the_local_store_bit_for_bit(cluster, small_file, re
 @pytest.mark.slow
 def test_a_worker_killed_mid_run_loses_and_repeats_no_trial(cluster, small_spec, small_file,
                                                             tmp_path):
-    """SIGKILL one of the two workers once the run has stored a batch (four trials per
-    task): the scheduler runs the lost worker's batch on the other, the run completes,
+    """SIGKILL one of the two workers once the run has stored a batch (up to four trials
+    per task): the scheduler runs the lost worker's batch on the other, the run completes,
     every trial is stored once, and the results equal a local run's."""
     n = 6 * 4  # six batches: the killed worker is in the middle of one
     reference = _reference(small_spec, tmp_path / "local", n)

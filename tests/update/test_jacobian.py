@@ -80,6 +80,58 @@ def test_hub_beam_with_a_non_proportional_dashpot_and_a_strain_gauge():
                          "modal_damping_ratio", "rho_kg_m3"])
 
 
+def test_the_channels_blocks_alone_give_the_whole_models_jacobian():
+    """Channels in one bending plane: the Jacobian on that plane's block of DOFs (a third
+    of the modes) equals the one in the complete basis of the whole model."""
+    from truthbench.update.jacobian import channel_subspace, structural_frf_jacobian
+
+    plant = make_plant("free_free_beam", n_elements=8, section="rectangular_bar")
+    nominal = {"modal_damping_ratio": 0.01, "b_m": 0.03, "h_m": 0.02}
+    sens = (Sensor("end_a", "z", "acceleration"), Sensor("mid", "z", "velocity"))
+    f = np.linspace(5.0, 400.0, 120)
+    pred = FRFPredictor(plant, nominal, [PredictedTest("a", f, (Actuator("end_a", "z"),),
+                                                       sens)])
+    theta = {**pred.theta0, "E_pa": pred.theta0["E_pa"] * 1.02}
+    names = ["E_pa", "rho_kg_m3", "suspension_stiffness_n_m"]
+    hw = pred.hardware(theta)
+    pred.jacobian(theta, names)
+    macros = pred._macro_cache[tuple(names)].at(theta, hw.model)
+    small, modes, sub = channel_subspace(hw.model, hw.modes, macros, 1)
+    assert small.n_dofs == modes.n_modes < hw.model.n_dofs / 2
+    s = 2j * np.pi * f
+    whole = structural_frf_jacobian(hw.model, hw.modes, macros, s, 1)
+    part = structural_frf_jacobian(small, modes, sub, s, 1)
+    for k in range(len(names)):
+        assert np.linalg.norm(part[k] - whole[k]) <= 1e-7 * np.linalg.norm(whole[k]), k
+
+
+@pytest.mark.parametrize("plant_kind", ["hub_beam", "free_free_beam"])
+def test_a_reduced_predictor_has_the_analytic_jacobian(plant_kind):
+    """A predictor that solves only the channels' blocks (``reduced``) and keeps every
+    mode of them: the Jacobian on those blocks, against differences of that predictor;
+    with modes left out (``mode_tolerance``) there is none (finite differences)."""
+    plant = make_plant(plant_kind, n_elements=8)
+    if plant_kind == "hub_beam":
+        nominal = {"hub_damping_n_m_s_rad": 5.0, "modal_damping_ratio": 0.003}
+        sens = (Sensor("hub", "rz", "velocity"), Sensor("root", "y", "strain"),
+                Sensor("tip", "y", "acceleration"))
+        acts = (Actuator("hub", "rz"), Actuator("tip", "y"))
+        names = ["E_pa", "hub_inertia_kg_m2", "hub_damping_n_m_s_rad"]
+    else:  # a round tube measured in z: its y and z pairs no longer meet
+        nominal = {"modal_damping_ratio": 0.01}
+        sens = (Sensor("end_a", "z", "acceleration"), Sensor("mid", "z", "velocity"))
+        acts = (Actuator("end_a", "z"), Actuator("quarter", "z"))
+        names = ["E_pa", "rho_kg_m3", "suspension_stiffness_n_m"]
+    tests = [PredictedTest(a.station, np.linspace(0.5, 300.0, 200), (a,), sens)
+             for a in acts]
+    pred = FRFPredictor(plant, nominal, tests, reduced=True)
+    theta = {**pred.theta0, "E_pa": pred.theta0["E_pa"] * 0.98}
+    assert pred.hardware(theta).modes.n_modes < pred.hardware(theta).model.n_dofs
+    _check(pred, theta, names)
+    lossy = FRFPredictor(plant, nominal, tests, reduced=True, mode_tolerance=1e-12)
+    assert lossy.jacobian(theta, names) is None
+
+
 def test_macroelements_follow_theta_and_relinearise_for_a_nonlinear_parameter():
     """E and rho enter linearly: one set of macroelements serves every theta (checked
     against the built matrices); the radius does not: they are taken anew, and the

@@ -118,6 +118,19 @@ def _worker_init(parent_pid: int) -> None:
     tune_malloc()
 
 
+def batch_size(remaining: int, workers: int, largest: int) -> int:
+    """Trials in the next task of a Dask run: ``ceil(remaining / (2 workers))``, at most
+    ``largest`` and at least one (guided self-scheduling).
+
+    Large batches save the scheduler's and the client's round trips; the batches shrink
+    as the run ends, so that the workers finish together: with fixed batches of four, 20
+    trials on two workers ran as 12 against 8, a fifth longer than 10 and 10. Which
+    trials share a task does not change any trial's result."""
+    if remaining <= 0:
+        return 0
+    return max(1, min(int(largest), -(-remaining // (2 * max(1, int(workers))))))
+
+
 def run_batch(job, plan, trials, seed) -> list:
     """``job(plan, trial, seed)`` for every trial of a batch, in order (one Dask task)."""
     tune_malloc()
@@ -208,11 +221,12 @@ class DaskEngine(_Engine):
     (``tcp://host:port``) connects to a running scheduler. Every worker needs the same
     truthbench installed; the plan is sent to each worker once.
 
-    Trials go out in batches of ``batch`` per task (:func:`run_batch`), at most
+    Trials go out in batches of up to ``batch`` per task (:func:`run_batch`), at most
     ``2 * workers`` tasks in flight: each task costs the scheduler and the client a
     round trip and its result's transfer, and four quickstart trials per task ran 15 to
     25 % faster than one here (2 workers of a LocalCluster, whose scheduler shares the
-    main process's core). A worker lost mid-run (killed, its machine gone)
+    main process's core). The batches shrink towards the end of the run
+    (:func:`batch_size`), so that no worker is left with a batch while the others idle. A worker lost mid-run (killed, its machine gone)
     costs its batch: the scheduler runs the batch again on another worker, and each
     batch's results arrive once, so no trial is lost or stored twice. A batch whose
     workers keep dying (the scheduler gives up after
@@ -253,12 +267,13 @@ class DaskEngine(_Engine):
         # a key of its own (not the content's): a later run of the same plan on this
         # engine must not share a key the end of this one releases
         plan_f = self._client.scatter(plan, broadcast=True, hash=False)
-        todo = iter(trials)
+        todo = list(trials)
         queue = as_completed()
         batches = {}
 
         def submit() -> bool:
-            batch = [t for _, t in zip(range(self.batch), todo, strict=False)]
+            size = batch_size(len(todo), self.workers, self.batch)
+            batch, todo[:size] = todo[:size], []
             if not batch:
                 return False
             fut = self._client.submit(run_batch, job, plan_f, batch, seed, pure=False)

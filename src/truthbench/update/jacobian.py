@@ -46,6 +46,13 @@ actual matrices at ``theta`` are checked against that affine prediction at every
 anew at ``theta`` when the check fails (a nonlinear parameter such as ``r_m`` or ``L_m``, or
 a joint dependence such as ``E t``).
 
+The derivative is taken on the blocks of DOFs the channels sit on
+(:func:`channel_subspace`): a beam measured in one plane needs that plane's bending
+modes only, all of them (the basis is complete there), and no block elsewhere. A
+``reduced`` predictor's modes (:class:`~truthbench.effects.Hardware`) are exactly those
+blocks' and serve as they are; a predictor that leaves modes out (``mode_tolerance``)
+has no analytic Jacobian.
+
 :func:`frf_jacobian` raises :class:`JacobianUnavailable` (and the finite-difference update
 then uses finite differences) for what this does not cover: effect parameters, parameters
 of per-test instrumentation effects or closed loops, an averaged-estimator prediction, a
@@ -56,12 +63,13 @@ the modal damping ratio is non-zero.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from truthbench.model import QUANTITIES
+from truthbench.model import QUANTITIES, Modes, coupled_blocks, solve_modes
 from truthbench.update.macroelements import (
     Macroelement,
     macroelement_matrices,
@@ -200,6 +208,11 @@ class _Batch:
             if not tensors:
                 continue
             K = tensors[0].shape[0]
+            if K == 0:  # no mode or pole of this kind (every mode coupled, say)
+                F = self.weights[key].shape[0]
+                self.results[key] = [np.zeros((F,) + t.shape[1:], np.result_type(
+                    self.weights[key], t)) for t in tensors]
+                continue
             flat = [t.reshape(K, -1) for t in tensors]
             dtype = np.result_type(*flat)
             big = np.concatenate([f.astype(dtype, copy=False) for f in flat], axis=1)
@@ -219,6 +232,69 @@ class _Batch:
             return total
         key, k = handle
         return self.results[key][k]
+
+
+def channel_subspace(model, modes, macros: Sequence[Macroelement], n_inputs: int):
+    """The model, its modes and the macroelements restricted to the DOFs that the
+    channels' FRFs and their derivatives depend on.
+
+    ``M``, ``C``, ``K`` and every macroelement's ``dM``, ``dC``, ``dK`` are block-diagonal
+    up to a permutation (:func:`~truthbench.model.coupled_blocks`: a straight beam's
+    bending planes, axial and torsion); a block that holds none of the DOFs the first
+    ``n_inputs`` inputs drive or the outputs read takes no part in those FRFs at any
+    ``theta`` nearby, nor in their derivatives. The FRF and its Jacobian on the blocks
+    that do (``S``) are those of the whole model, with a complete modal basis of ``S``
+    only: a beam measured in one plane has a third of the modes, and the Jacobian's
+    products over modes cost a third.
+
+    Parameters
+    ----------
+    model : StructuralModel
+    modes : Modes
+        The model's modes: all of them, or those of the blocks of ``S`` (a reduced
+        :class:`~truthbench.effects.Hardware`'s), which are then used as they are.
+    macros : sequence of Macroelement
+    n_inputs : int
+        The inputs used (the first ``n_inputs`` columns of ``B``).
+
+    Returns
+    -------
+    model : StructuralModel
+        Restricted to ``S`` (the same object when ``S`` is every DOF).
+    modes : Modes
+        All modes of the restricted model.
+    macros : list of Macroelement
+        Restricted to ``S``.
+    """
+    zeta = np.asarray(model.modal_damping_ratio, float)
+    per_mode = zeta.size > 1 or any(np.size(me.dzeta_modal) > 1 for me in macros)
+    n = model.n_dofs
+    if not per_mode:  # one damping ratio per mode indexes the full basis: no restriction
+        parts = [model.M, model.K, model.C] + [x for me in macros
+                                               for x in (me.dM, me.dK, me.dC) if x.nnz]
+        blocks = coupled_blocks(*parts)
+        channels = np.any(model.B[:, :n_inputs] != 0, axis=1) | np.any(model.C_out != 0,
+                                                                        axis=0)
+        keep = [b for b in blocks if channels[b].any()]
+        S = np.sort(np.concatenate(keep)) if keep else np.arange(n)
+    if per_mode or S.size == n:
+        return model, (modes if modes.n_modes == n else model.modes()), list(macros)
+
+    def sub(x):
+        return x.tocsr()[S][:, S]
+
+    labels = model.dof_labels
+    small = replace(model, M=sub(model.M), C=sub(model.C), K=sub(model.K), B=model.B[S],
+                    C_out=model.C_out[:, S], dof_labels=tuple(labels[i] for i in S))
+    outside = np.ones(n, bool)
+    outside[S] = False
+    if modes.n_modes == S.size and not np.any(modes.shapes[outside]):
+        # the modes of exactly these blocks (a reduced Hardware's): complete on S
+        modes = Modes(modes.omega_rad_s, modes.shapes[S], modes.rigid)
+    else:
+        modes = solve_modes(small.M, small.K)
+    return (small, modes,
+            [replace(me, dM=sub(me.dM), dK=sub(me.dK), dC=sub(me.dC)) for me in macros])
 
 
 def _support(mat) -> np.ndarray:
@@ -439,26 +515,24 @@ def structural_frf_jacobian(model, modes, macros: Sequence[Macroelement], s: np.
         for j, big, ac in cluster_terms:
             sel = where[big]
             coef = ac[None, :] * (1.0 + s[:, None] * zeta_over_w[ci[big]][None, :])
-            extra[j] -= np.einsum("fok,fki->foi", Y_k[:, :, sel] * coef[:, None, :],
-                                  X_i[:, sel], optimize=True)
+            extra[j] -= (Y_k[:, :, sel] * coef[:, None, :]) @ X_i[:, sel]
     # the physical damping's terms, s (dPhi^T C Phi + Phi^T C dPhi + Phi^T dC Phi)
     if damp_rows:
         rr = R.size
         Yd, Xd = batch.get(h_yd), batch.get(h_xd)  # (F, n_out, (p + 1) r), (F, ., n_in)
-        YPhiR, PhiRX = Yd[:, :, :rr], Xd[:, :rr]
+        # (F, n_out, r) @ (r, r) @ (F, r, n_in), the parameter-free halves formed once
+        CX = C_RR @ Xd[:, :rr]
+        YC = Yd[:, :, :rr] @ C_RR
         for j in range(p):
             sl = slice((j + 1) * rr, (j + 2) * rr)
-            damp = (np.einsum("for,rq,fqi->foi", Yd[:, :, sl], C_RR, PhiRX, optimize=True)
-                    + np.einsum("for,rq,fqi->foi", YPhiR, C_RR, Xd[:, sl], optimize=True))
-            extra[j] -= s[:, None, None] * damp
+            extra[j] -= s[:, None, None] * (Yd[:, :, sl] @ CX + YC @ Xd[:, sl])
     if dC_rows:
         Yd, Xd = batch.get(h_yc), batch.get(h_xc)
         start = 0
         for j, P_, dC in dC_rows:
             sl = slice(start, start + P_.shape[0])
             start += P_.shape[0]
-            extra[j] -= s[:, None, None] * np.einsum("for,rq,fqi->foi", Yd[:, :, sl], dC,
-                                                     Xd[:, sl], optimize=True)
+            extra[j] -= s[:, None, None] * ((Yd[:, :, sl] @ dC) @ Xd[:, sl])
     first = batch.get(h_first)  # (F, p, n_out, n_in)
     second = batch.get(h_second)  # (F, 2, p, n_out, n_in)
     out = (first - second[:, 0] - s[:, None, None, None] * second[:, 1]).transpose(1, 0, 2, 3)
@@ -520,7 +594,13 @@ def frf_jacobian(predictor, theta: Mapping[str, float], names: Sequence[str], *,
         if cache is None or cache.names != tuple(plant_names):
             cache = MacroelementCache(lambda th: predictor.hardware(th).model, plant_names)
         macros = cache.at(theta, model)
-        modes = hw.modes
+        if len(hw.modes.omega_rad_s) != model.n_dofs and not (
+                hw.reduced and predictor.mode_tolerance == 0):
+            raise JacobianUnavailable(f"the modal basis has {len(hw.modes.omega_rad_s)} of "
+                                      f"{model.n_dofs} modes; the analytic Jacobian needs "
+                                      f"all of them")
+        model, modes, macros = channel_subspace(model, hw.modes, macros,
+                                                len(hw.actuators))
     n_act = len(hw.actuators)
     from truthbench.effects.hardware import _filter_gains
 

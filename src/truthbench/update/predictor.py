@@ -187,7 +187,8 @@ class FRFPredictor:
     reduced : bool, optional
         Solve only what the channels' FRFs need (:class:`Hardware
         <truthbench.effects.hardware.Hardware>` ``reduced``): the same FRFs to round-off,
-        several times faster for a beam measured in one plane.
+        several times faster for a beam measured in one plane. With ``mode_tolerance``
+        0 the analytic :meth:`jacobian` works on those blocks too.
     """
 
     plant: Plant
