@@ -226,11 +226,11 @@ class DaskEngine(_Engine):
     round trip and its result's transfer, and four quickstart trials per task ran 15 to
     25 % faster than one here (2 workers of a LocalCluster, whose scheduler shares the
     main process's core). The batches shrink towards the end of the run
-    (:func:`batch_size`), so that no worker is left with a batch while the others idle. A worker lost mid-run (killed, its machine gone)
-    costs its batch: the scheduler runs the batch again on another worker, and each
-    batch's results arrive once, so no trial is lost or stored twice. A batch whose
-    workers keep dying (the scheduler gives up after
-    ``distributed.scheduler.allowed-failures`` deaths) is a
+    (:func:`batch_size`), so that no worker is left with a batch while the others idle.
+    A worker lost mid-run (killed, its machine gone) costs its batch: the scheduler runs
+    the batch again on another worker, and each batch's results arrive once, so no trial
+    is lost or stored twice. A batch whose workers keep dying (the scheduler gives up
+    after ``distributed.scheduler.allowed-failures`` deaths) is a
     :class:`~truthbench.errors.CampaignError` naming its trials.
     """
 
