@@ -32,6 +32,31 @@ def test_clean_data_find_nothing(tube):
     assert 0.5 < diag.before.reduced_chi2 < 4
 
 
+def test_a_complex_baseline_that_cannot_be_fitted_leaves_the_magnitude_fit(tube,
+                                                                            monkeypatch):
+    """Where a phase error dwarfs the structure's, the complex baseline fit may end where
+    E and rho cannot be separated (a model near zero); it raised out of the diagnosis in
+    one of 200 study trials. The magnitude fit is then the baseline, and the diagnosis
+    goes on (here a 1 ms delay, found)."""
+    import truthbench.diagnose.core as core
+
+    real, calls = core.fit, []
+
+    def failing(problem, *args, **kw):
+        calls.append(problem)
+        if len(calls) == 2:  # the baseline's second complex fit
+            raise IdentifiabilityError("E_pa and rho_kg_m3 cannot be separated (test)")
+        return real(problem, *args, **kw)
+
+    monkeypatch.setattr(core, "fit", failing)
+    diag = _diagnose(tube, measured(tube, "time_delay:delay_s=0.001"),
+                     candidates=("time_delay", "added_mass"))
+    assert len(calls) >= 2  # the failing fit was reached, and the diagnosis went on:
+    (found,) = diag.found
+    assert found.effect == "time_delay"
+    assert found.parameters["delay_s"] == pytest.approx(0.001, rel=0.01)
+
+
 @pytest.mark.parametrize("inject,effect,x_m,param,value", [
     ("time_delay:delay_s=0.001", "time_delay", None, "delay_s", 0.001),
     ("added_mass:station=three_quarter,mass_kg=0.05", "added_mass", 1.35, "mass_kg", 0.05),

@@ -405,9 +405,18 @@ class _Diagnosis(_Placement):
         if structural is None:
             structural = fit_magnitude(problem, start=self.level_start(problem))
         self.structural = structural
-        current = fit(problem, start=structural)
-        problem = with_offsets(problem, current)
-        current = fit(problem, start=current.theta)
+        try:
+            current = fit(problem, start=structural)
+            offset = with_offsets(problem, current)
+            current = fit(offset, start=current.theta)
+            problem = offset
+        except REFIT_ERRORS:
+            # where a phase error dwarfs the structure's, the complex fit's best is a
+            # model near zero, where E and rho scale it alike and cannot be separated:
+            # the magnitude fit is then the baseline
+            problem = with_offsets(problem, evaluate(problem, (), self.declared,
+                                                     structural))
+            current = evaluate(problem, (), self.declared, structural)
         # the phase signatures are read against the magnitude fit, which a phase error
         # does not distort (the complex fit may bend the structure to mimic part of it)
         return problem, current, evaluate(problem, (), self.declared, structural)
