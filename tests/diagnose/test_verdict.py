@@ -22,12 +22,17 @@ def test_a_resonance_has_no_far_pole_and_a_first_order_one_is_infinitely_far():
 
 
 def _refit(effect, dbic, **own):
-    return SimpleNamespace(candidate=SimpleNamespace(effect=effect), delta_bic=dbic,
-                           physical=True, own=own)
+    """A refit of ``effect`` with its own fitted values ``own`` (as the search keys them:
+    ``<label>.<name>`` in the fit's theta)."""
+    fitted = tuple(SimpleNamespace(name=k) for k in own)
+    return SimpleNamespace(
+        candidate=SimpleNamespace(effect=effect, label=effect, fitted=fitted),
+        fit=SimpleNamespace(theta={f"{effect}.{k}": v for k, v in own.items()}),
+        delta_bic=dbic, physical=True)
 
 
 def _choose(finals, chosen, margin, f_max=1000.0):
-    return parsimonious(finals, chosen, margin, lambda r: r.own, f_max)
+    return parsimonious(finals, chosen, margin, f_max)
 
 
 def test_the_first_order_low_pass_leads_where_the_second_order_pole_is_unresolved():

@@ -607,7 +607,6 @@ class _Diagnosis(_Placement):
                 continue
             margin = self.margin(chosen.problem, chosen.fit)
             chosen = parsimonious(finals, chosen, margin,
-                                  lambda r: fitted_own(r.candidate, r.fit.theta),
                                   max(float(t.freq_hz.max()) for t in tests))
             accepted.append(chosen.candidate)
             current, problem = chosen.fit, chosen.problem
@@ -779,9 +778,9 @@ class _Diagnosis(_Placement):
             return None, finals
         # every located contender is placed between the nodes before the choice: a mass
         # between two nodes, held at the nearer one, loses to a joint's two parameters
-        top = max(r.delta_bic for r in finals)
+        best_bic = max(r.delta_bic for r in finals)
         finals = [self.refine_position(problem, current, accepted, r, n, step, tests)
-                  if r.candidate.node is not None and r.delta_bic >= 0.5 * top else r
+                  if r.candidate.node is not None and r.delta_bic >= 0.5 * best_bic else r
                   for r in finals]
         return max(finals, key=lambda r: r.delta_bic), finals
 

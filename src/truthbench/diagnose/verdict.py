@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from truthbench.diagnose.fit import Fit, Problem
+from truthbench.diagnose.search import fitted_own
 
 
 @dataclass(frozen=True)
@@ -242,18 +243,17 @@ def far_pole_hz(a_s2: float, b_s: float) -> float:
     return float((b_s + np.sqrt(disc)) / (2 * a_s2) / (2 * np.pi))
 
 
-def parsimonious(finals: Sequence, chosen, margin: float, own, f_max_hz: float):
+def parsimonious(finals: Sequence, chosen, margin: float, f_max_hz: float):
     """``chosen``, or the simpler effect it contains (:data:`NESTED`), when that was
     refitted and either explains the data within ``margin`` of delta BIC or ``chosen``'s
     fit is overdamped with its upper pole beyond :data:`FAR_POLE` times ``f_max_hz``.
     Of two nested explanations the data cannot tell apart, the one with fewer
-    parameters is stated first (the other stays the runner-up). ``own(refit)`` gives a
-    refit's own fitted values (``a_s2``, ``b_s`` for a second-order one)."""
+    parameters is stated first (the other stays the runner-up)."""
     simpler = [r for r in finals if r.physical
                and r.candidate.effect in NESTED.get(chosen.candidate.effect, ())]
     if not simpler:
         return chosen
-    values = own(chosen)
+    values = fitted_own(chosen.candidate, chosen.fit.theta)
     unresolved = far_pole_hz(values.get("a_s2", 0.0), values.get("b_s", 0.0)) \
         > FAR_POLE * f_max_hz
     close = [r for r in simpler if unresolved or chosen.delta_bic - r.delta_bic <= margin]

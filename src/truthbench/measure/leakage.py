@@ -22,6 +22,7 @@ Pure functions on arrays; nothing here estimates from data.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -214,42 +215,37 @@ def expected_h1(freq_hz, frf: Callable[[np.ndarray], np.ndarray], kernel: Leakag
     return out.reshape((f.size,) + Hf.shape[1:])
 
 
-#: Smoothing operators kept (a fit predicts the same lines through the same kernel
-#: hundreds of times; the operator depends on the lines, the kernel and the band only).
-_SMOOTHING_CACHE_SIZE = 16
-_smoothing_cache: dict = {}
-
-
 def _smoothing(f: np.ndarray, kernel: LeakageKernel, band_hz):
     """``(fine lines (Hz), which carry input, S, row sums of S)``: the sparse operator
-    (n_freq, n_fine) that :func:`expected_h1` applies, for lines ``f``."""
-    key = (f.tobytes(), kernel.delta_hz, kernel.offsets.tobytes(), kernel.weights.tobytes(),
-           None if band_hz is None else tuple(map(float, band_hz)))
-    hit = _smoothing_cache.get(key)
-    if hit is not None:
-        return hit
-    idx = np.rint(f / kernel.delta_hz).astype(np.int64)
-    if np.any(np.abs(idx * kernel.delta_hz - f) > 1e-6 * kernel.delta_hz):
+    (n_freq, n_fine) that :func:`expected_h1` applies, for lines ``f``. A fit predicts
+    the same lines through the same kernel hundreds of times, and the operator depends
+    on nothing else: the last few are kept."""
+    return _smoothing_of(np.ascontiguousarray(f, float).tobytes(), float(kernel.delta_hz),
+                         np.asarray(kernel.offsets, np.int64).tobytes(),
+                         np.asarray(kernel.weights, float).tobytes(),
+                         None if band_hz is None else tuple(map(float, band_hz)))
+
+
+@functools.lru_cache(maxsize=16)
+def _smoothing_of(f_bytes: bytes, delta_hz: float, offsets_bytes: bytes,
+                  weights_bytes: bytes, band_hz):
+    f = np.frombuffer(f_bytes, float)
+    offsets = np.frombuffer(offsets_bytes, np.int64)
+    weights = np.frombuffer(weights_bytes, float)
+    idx = np.rint(f / delta_hz).astype(np.int64)
+    if np.any(np.abs(idx * delta_hz - f) > 1e-6 * delta_hz):
         raise ValueError("expected_h1: the lines are not on the kernel's grid (multiples "
-                         f"of {kernel.delta_hz:g} Hz)")
-    grid = np.unique((idx[:, None] + kernel.offsets[None, :]).ravel())
-    fine = grid * kernel.delta_hz
+                         f"of {delta_hz:g} Hz)")
+    grid = np.unique((idx[:, None] + offsets[None, :]).ravel())
+    fine = grid * delta_hz
     on = fine > 0
     if band_hz is not None:
-        on &= (fine >= band_hz[0] - 1e-9 * kernel.delta_hz) & \
-            (fine <= band_hz[1] + 1e-9 * kernel.delta_hz)
-    pos = np.searchsorted(grid, idx[:, None] + kernel.offsets[None, :])  # (n_freq, 2M+1)
-    weight = kernel.weights[None, :] * on[pos]
-    rows = np.repeat(np.arange(f.size), kernel.offsets.size)
+        on &= (fine >= band_hz[0] - 1e-9 * delta_hz) & (fine <= band_hz[1] + 1e-9 * delta_hz)
+    pos = np.searchsorted(grid, idx[:, None] + offsets[None, :])  # (n_freq, 2M+1)
+    weight = weights[None, :] * on[pos]
+    rows = np.repeat(np.arange(f.size), offsets.size)
     S = sp.csr_matrix((weight.ravel(), (rows, pos.ravel())), shape=(f.size, grid.size))
     norm = np.asarray(S.sum(axis=1)).ravel()
     for a in (fine, on, norm):
         a.flags.writeable = False
-    hit = (fine, on, S, norm)
-    if len(_smoothing_cache) >= _SMOOTHING_CACHE_SIZE:
-        try:  # the oldest out (another thread may have taken it first)
-            _smoothing_cache.pop(next(iter(_smoothing_cache)), None)
-        except (RuntimeError, StopIteration):
-            pass
-    _smoothing_cache[key] = hit
-    return hit
+    return fine, on, S, norm
