@@ -244,6 +244,10 @@ def _ladisk(data):
                     spec.update.parameters, **spec.diagnose.settings())
 
 
+EXPLANATIONS = {"added_mass", "element_physics", "joint"}
+"""What one channel of the LADISK bar cannot tell apart (its first finding's verdict)."""
+
+
 def _explanations(diag) -> set[str]:
     """The verdict's explanations of its first finding, in no order ("A or B")."""
     first = diag.found[0]
@@ -256,18 +260,22 @@ def test_ladisk_bar_verdict_names_the_ambiguity_and_the_measurement_that_settles
     frequencies of the LADISK bar fall below free-free Euler-Bernoulli by 1 % and 2.4 %
     (modes 2 and 3 against mode 1), and fitting the model's scale alone leaves errors of
     1 to 2 %. With every effect tried, one channel cannot tell the Timoshenko terms from a
-    mass near 0.8 L: the verdict is "element_physics or added_mass", with the point a
-    second accelerometer or impact would separate them at; either way the three bending
-    modes then agree within 0.25 % (0.07 % with the Timoshenko terms, 0.21 % with the
-    mass, which is stated first since it is placed between nodes before the choice)."""
+    mass near 0.8 L or a soft element near the end (a joint, its damping held at 0):
+    the verdict names all three, the mass first (as few parameters as the Timoshenko
+    terms, and a little more explained), with the point a second accelerometer or
+    impact would separate each pair at; the three bending modes then agree within
+    0.25 %."""
     from truthbench import load_frf
 
     diag = _ladisk(load_frf(LADISK))
-    assert _explanations(diag) == {"element_physics", "added_mass"}
-    assert diag.measurements and all(
-        sorted(label.split("@")[0] for label in m.between) == ["added_mass", "element_physics"]
-        for m in diag.measurements)
-    # either is stated first (the data cannot tell them apart)
+    assert _explanations(diag) == EXPLANATIONS
+    first = diag.found[0]
+    assert first.effect == "added_mass"
+    runners = {a.label for a in first.alternatives}
+    pairs = [m.between for m in diag.measurements if m.between[0] == first.label]
+    assert pairs and all(b in runners for _, b in pairs)
+    assert any(b.split("@")[0] == "element_physics" for _, b in pairs)
+    # the Timoshenko terms, the runner-up
     physics = next(f for f in (*diag.found, *diag.found[0].alternatives)
                    if f.effect == "element_physics")
     # the Timoshenko terms scale with (h / L)^2: the fitted scale is the true bar's
@@ -286,7 +294,7 @@ def test_ladisk_bar_verdict_names_the_ambiguity_and_the_measurement_that_settles
 def test_ladisk_bar_verdict_is_the_same_from_half_the_record_with_twice_the_force():
     """A second record of the same bar: the first half of the shipped one (0.5 s, 2 Hz
     lines) with the force channel doubled (the FRF halved, as a miscalibrated hammer
-    would give). The verdict names the same two explanations."""
+    would give). The verdict names the same three explanations."""
     from dataclasses import replace
 
     from truthbench.io.lvm import read_lvm
@@ -296,7 +304,7 @@ def test_ladisk_bar_verdict_is_the_same_from_half_the_record_with_twice_the_forc
     data = np.array(rec.data)[:, : len(rec.data[0]) // 2]
     data[rec.channel_names.index("Force (Trigger)")] *= 2.0
     diag = _ladisk([frf_from_record(replace(rec, data=data), name="acceleration")])
-    assert _explanations(diag) == {"element_physics", "added_mass"}
+    assert _explanations(diag) == EXPLANATIONS
     assert diag.measurements
 
 

@@ -26,7 +26,7 @@ def _refit(effect, dbic, **own):
     ``<label>.<name>`` in the fit's theta)."""
     fitted = tuple(SimpleNamespace(name=k) for k in own)
     return SimpleNamespace(
-        candidate=SimpleNamespace(effect=effect, label=effect, fitted=fitted),
+        candidate=SimpleNamespace(effect=effect, label=effect, fitted=fitted, pinned=()),
         fit=SimpleNamespace(theta={f"{effect}.{k}": v for k, v in own.items()}),
         delta_bic=dbic, physical=True)
 
@@ -42,8 +42,9 @@ def test_the_first_order_low_pass_leads_where_the_second_order_pole_is_unresolve
     w_low, w_far = 2 * np.pi * 786.0, 2 * np.pi * 40_000.0  # poles of the fit
     far = _refit("actuator_resonance", 88322.0, a_s2=1 / (w_low * w_far),
                  b_s=1 / w_low + 1 / w_far)
-    first = _refit("actuator_dynamics", 87183.0)
-    twin = _refit("sensor_dynamics", 88322.0)
+    first = _refit("actuator_dynamics", 87183.0, tau_s=1 / w_low)
+    twin = _refit("sensor_dynamics", 88322.0, a_s2=1 / (w_low * w_far),
+                  b_s=1 / w_low + 1 / w_far)
     assert _choose([far, twin, first], far, 10.0) is first
     w_near = 2 * np.pi * 3000.0  # within FAR_POLE (10) times the band's top
     near = _refit("actuator_resonance", 88322.0, a_s2=1 / (w_low * w_near),
@@ -51,3 +52,16 @@ def test_the_first_order_low_pass_leads_where_the_second_order_pole_is_unresolve
     assert _choose([near, first], near, 10.0) is near
     assert _choose([near, first], near, 2000.0) is first  # within the margin
     assert _choose([far, twin], far, 10.0) is far  # no simpler one refitted
+
+
+def test_of_explanations_within_the_margin_the_one_with_fewer_parameters_leads():
+    """A joint (stiffness loss and damping, the damping held at its bound 0: still two
+    parameters of its kind) and a point mass that explain the data within the margin:
+    the mass is stated first, the joint stays a runner-up; beyond the margin the better
+    fit leads whatever its parameter count."""
+    joint = _refit("joint", 9626.0, stiffness_loss=0.8)
+    joint.candidate.pinned = (("damping_n_m_s_rad", 0.0),)
+    mass = _refit("added_mass", 9551.0, mass_kg=0.07)
+    assert _choose([joint, mass], joint, 100.0) is mass
+    assert _choose([joint, mass], joint, 50.0) is joint
+    assert _choose([joint, mass], mass, 100.0) is mass

@@ -71,6 +71,9 @@ class Candidate:
         A joint between two element centres (:func:`hinge_parts`): its flexibility
         shared by the two elements, the one nearer the point taking more. Its fitted
         values are those of one element's joint of the same flexibility.
+    pinned : tuple of (name, value), optional
+        Fitted parameters held at a physical bound the fit crossed (:meth:`pin`): they
+        are no longer in ``fitted`` and enter the model at that value.
     """
 
     effect: str
@@ -80,6 +83,15 @@ class Candidate:
     node: int | None = None
     levels: tuple[tuple[str, float], ...] | None = None
     parts: tuple[tuple[str, float], ...] | None = None
+    pinned: tuple[tuple[str, float], ...] = ()
+
+    def pin(self, values: Mapping[str, float]) -> Candidate:
+        """The candidate with the fitted parameters ``values`` (own name -> value) held
+        there: the constrained fit of a parameter whose free optimum lies beyond its
+        physical bound holds it at the bound (a joint's damping at 0 while its stiffness
+        loss is still fitted)."""
+        return replace(self, fitted=tuple(p for p in self.fitted if p.name not in values),
+                       pinned=self.pinned + tuple((k, float(v)) for k, v in values.items()))
 
     @property
     def spec(self) -> EffectSpec:
@@ -92,6 +104,7 @@ class Candidate:
         init = {p.name: p.start for p in self.fitted}
         init.update(start or {})
         names = tuple(p.name for p in self.fitted)
+        held = dict(self.pinned)
         if self.effect == "coulomb_friction":
             if self.levels is None:
                 raise ModelError(f"candidate {self.label!r}: the tests' levels are not "
@@ -106,10 +119,13 @@ class Candidate:
             return tuple(EffectTerm(
                 f"{self.label}/{station}", parse_effect(
                     {"name": self.effect, **self.options, "station": station}, self.label,
-                    "diagnosis"), names, lambda f, w=w: _hinge_share(f, w), init, None,
-                self.label) for station, w in self.parts)
-        form = EFFECTS[self.effect].diagnosis
-        return (EffectTerm(self.label, self.spec, names, form.to_values, init),)
+                    "diagnosis"), names, lambda f, w=w: _hinge_share({**held, **f}, w), init,
+                None, self.label) for station, w in self.parts)
+        to_values = EFFECTS[self.effect].diagnosis.to_values
+        if held:
+            to_values = ((lambda f: {**held, **f}) if to_values is None else
+                         (lambda f, g=to_values: g({**held, **f})))
+        return (EffectTerm(self.label, self.spec, names, to_values, init),)
 
     def keys(self) -> tuple[str, ...]:
         return tuple(f"{self.label}.{p.name}" for p in self.fitted)
@@ -123,7 +139,7 @@ class Candidate:
         if self.effect == "coulomb_friction":
             return {"force_n": float(fitted["force_n"])}
         if self.parts is not None:  # one element's joint of the same flexibility
-            return {k: float(v) for k, v in fitted.items()}
+            return {k: float(v) for k, v in {**dict(self.pinned), **fitted}.items()}
         return self.terms()[0].values({f"{self.label}.{k}": v for k, v in fitted.items()})
 
 
@@ -350,7 +366,26 @@ def bind_levels(cands, hardware_of, tests) -> list[Candidate]:
 
 
 def with_node_stations(plant: Plant) -> Plant:
-    """The plant with a station ``n<k>`` at every node (candidates are placed on them)."""
+    """The plant with a station ``n<k>`` at every node (candidates are placed on them)
+    and one at every element's midpoint (:func:`point_station`: point attachments are
+    screened there too)."""
+    n = plant.n_elements
     stations = dict(plant.stations)
-    stations.update({f"n{k}": k / plant.n_elements for k in range(plant.n_elements + 1)})
+    stations.update({f"n{k}": k / n for k in range(n + 1)})
+    stations.update({point_station((k + 0.5) / n): (k + 0.5) / n for k in range(n)})
     return replace(plant, stations=stations)
+
+
+def point_station(fraction: float) -> str:
+    """The name of the station at ``fraction`` of the article's length, ``x<fraction>``
+    (unique by its value, so it survives a mesh refinement)."""
+    return f"x{fraction:.6f}"
+
+
+def at_fraction(c: Candidate, fraction: float, n_elements: int) -> Candidate:
+    """A located candidate moved to the station at ``fraction`` (:func:`point_station`,
+    which the plant must have), its node the nearest."""
+    name = point_station(fraction)
+    opts = {**c.options, "station": name}
+    label = f"{c.effect}@{name}" + (f".{opts['direction']}" if "direction" in opts else "")
+    return replace(c, options=opts, label=label, node=int(round(fraction * n_elements)))

@@ -55,8 +55,10 @@ from threadpoolctl import threadpool_limits
 from truthbench.diagnose import adequacy
 from truthbench.diagnose.candidates import (
     Candidate,
+    at_fraction,
     bind_levels,
     catalogue,
+    hinge_parts,
     not_tried,
     references,
     with_node_stations,
@@ -75,6 +77,7 @@ from truthbench.diagnose.fit import (
 )
 from truthbench.diagnose.place import _Placement
 from truthbench.diagnose.residual import ModeResidual, Residual, mpc, residual_views
+from truthbench.diagnose.screen import POINT_EFFECTS
 from truthbench.diagnose.search import (
     PHASE_EFFECTS,
     REFIT_ERRORS,
@@ -83,11 +86,13 @@ from truthbench.diagnose.search import (
     accepted_lag,
     adapted,
     bounds_ok,
+    crossed,
     data_delay,
     delay_drop,
     delta_bic,
     fitted_own,
     full_refit,
+    partly_crossed,
     refit,
     screen,
     shortlist,
@@ -107,6 +112,11 @@ from truthbench.measure.frfdata import FRFData
 from truthbench.measure.leakage import Estimator
 from truthbench.plants.base import Plant
 from truthbench.update.predictor import APPENDED_PARAMETERS, PredictedTest
+
+MODEL_FORM = {"element_physics": {"scale": 1.0}}
+"""Candidates that change the model's form everywhere (the element's shear and rotary
+inertia), tried beside the best local finalists from their physical value
+(:meth:`_Diagnosis.with_form`)."""
 
 
 @dataclass(frozen=True)
@@ -305,12 +315,46 @@ def _renamed_label(label: str, options: Mapping, renamed: Mapping[str, str]) -> 
     return label.replace(f"@{st}", f"@{renamed[st]}", 1)
 
 
-def _renamed_candidate(c: Candidate, renamed: Mapping[str, str]) -> Candidate:
-    """A candidate on the refined mesh (its node station renamed)."""
+def _refined_candidate(c: Candidate, renamed: Mapping[str, str], plant
+                       ) -> tuple[Candidate, dict[str, float]]:
+    """A candidate on ``plant``'s mesh refined to twice its elements, and the station it
+    needs there (name -> fraction; empty when it has one).
+
+    A located candidate's node station is renamed to the same point's new node. A joint
+    is its element's flexibility (or two elements' shares of one, ``parts``): it stays
+    centred where it was, straddling the two halves of its element
+    (:func:`~.candidates.hinge_parts`); held at the new node it would move by a
+    quarter of the old element at every refinement."""
+    n = plant.n_elements
+    if c.effect == "joint" and c.node is not None:
+        centre = (min(c.node, n - 1) + 0.5) / n if c.parts is None else \
+            float(plant.stations[c.options["station"]])
+        moved = at_fraction(c, centre, 2 * n)
+        moved = replace(moved, node=int(np.clip(np.floor(centre * 2 * n), 0, 2 * n - 1)),
+                        parts=hinge_parts(centre, 2 * n))
+        return moved, {moved.options["station"]: centre}
     label = _renamed_label(c.label, c.options, renamed)
-    factor = 2
     return replace(c, options=_renamed_station(c.options, renamed), label=label,
-                   node=None if c.node is None else c.node * factor)
+                   node=None if c.node is None else c.node * 2), {}
+
+
+def _refined_theta(theta: Mapping[str, float], accepted: Sequence[Candidate],
+                   refined: Sequence[Candidate]) -> dict:
+    """Parameter values with the candidates' keys renamed for the refined mesh
+    (:func:`_refined_candidate`).
+
+    A joint's stiffness loss is that of one element: the same rotational flexibility,
+    ``loss h / (EI (1 - loss))``, on an element of half the length is a loss
+    ``2 loss / (1 + loss)``."""
+    out = dict(theta)
+    for old, new in zip(accepted, refined, strict=True):
+        for p, old_key, new_key in zip(old.fitted, old.keys(), new.keys(), strict=True):
+            if old_key in out:
+                value = out.pop(old_key)
+                if old.effect == "joint" and p.name == "stiffness_loss":
+                    value = 2 * value / (1 + value)
+                out[new_key] = value
+    return out
 
 
 def _renamed_term(t, renamed: Mapping[str, str]):
@@ -322,20 +366,14 @@ def _renamed_term(t, renamed: Mapping[str, str]):
 
 
 def _renamed_theta(theta: Mapping[str, float], terms, renamed: Mapping[str, str]) -> dict:
-    """Parameter values with the effect terms' keys renamed for the refined mesh.
-
-    A joint's stiffness loss belongs to its element, which the refinement halves: the
-    same rotational flexibility across the joint, ``loss h / (EI (1 - loss))``, on an
-    element of half the length is a loss ``2 loss / (1 + loss)``."""
+    """Parameter values with the effect terms' keys renamed for the refined mesh (their
+    node stations renamed; not for joints: :func:`_refined_theta`)."""
     out = dict(theta)
     for t in terms:
         new = _renamed_term(t, renamed)
         for old_key, new_key in zip(t.keys(), new.keys(), strict=True):
             if old_key in out:
-                value = out.pop(old_key)
-                if t.spec.name == "joint" and old_key.endswith(".stiffness_loss"):
-                    value = 2 * value / (1 + value)
-                out[new_key] = value
+                out[new_key] = out.pop(old_key)
     return out
 
 
@@ -513,8 +551,11 @@ class _Diagnosis(_Placement):
                 adequate = False
                 break
             renamed_tests = adequacy.renamed_tests(tests, renamed)
-            theta = _renamed_theta(current.theta, current.terms, renamed)
-            renamed_accepted = [_renamed_candidate(c, renamed) for c in accepted]
+            refined = [_refined_candidate(c, renamed, problem.plant) for c in accepted]
+            renamed_accepted = [c for c, _ in refined]
+            theta = _refined_theta(current.theta, accepted, renamed_accepted)
+            fine = replace(fine, stations={**fine.stations,
+                                           **{k: v for _, st in refined for k, v in st.items()}})
             fresh = self.problem(fine, renamed_tests, renamed_accepted)
             try:
                 if accepted:
@@ -588,11 +629,12 @@ class _Diagnosis(_Placement):
         alternatives: dict[str, tuple[Alternative, ...]] = {}
         dropped: list[Found] = []
         measured: tuple[Measurement, ...] = ()
+        merged: set[str] = set()  # accepted attachments a twin was tried against
         for step in range(2 * s.max_effects + 1):
             if len(accepted) >= s.max_effects:
                 break
-            chosen, finals = self.step(problem, current, cands, accepted, step, n, signature,
-                                       tests)
+            chosen, finals, paired = self.step(problem, current, cands, accepted, step, n,
+                                               signature, tests)
             if chosen is None:
                 # nothing more to add: a mode the model lacks that only the guided look
                 # finds (the effects' residual is gone) changes the comparison, and the
@@ -606,13 +648,40 @@ class _Diagnosis(_Placement):
                                                            baseline)
                 continue
             margin = self.margin(chosen.problem, chosen.fit)
-            chosen = parsimonious(finals, chosen, margin,
-                                  max(float(t.freq_hz.max()) for t in tests))
+            if paired is not None:  # the model's form and a finalist, together
+                form, chosen = paired
+                accepted.append(form)
+                self._evidence[form.label] = chosen.delta_bic
+            else:
+                chosen = parsimonious(finals, chosen, margin,
+                                      max(float(t.freq_hz.max()) for t in tests))
+            twin = self.twin(accepted, chosen, problem, merged)
+            if twin is not None:
+                moved = self.move(problem, current, accepted, twin, n, step, tests)
+                merged.add(twin.label)
+                if moved is not None and delta_bic(
+                        n, moved.fit.chi2, chosen.fit.chi2,
+                        len(chosen.candidate.fitted)) < self.thresholds[-1]:
+                    # the found attachment moved (and resized) explains the data as
+                    # well as a second one beside it: one attachment, placed anew
+                    c = chosen.candidate
+                    self.tried.append(Tried(
+                        step, c.label, c.effect, c.options, float("nan"), chosen.delta_bic,
+                        status=f"not added: {twin.label} moved to "
+                               f"{moved.candidate.label} explains as much"))
+                    renamed = {twin.label: moved.candidate.label}
+                    accepted = [moved.candidate if a is twin else a for a in accepted]
+                    self._evidence = {renamed.get(k, k): v for k, v in self._evidence.items()}
+                    alternatives = {renamed.get(k, k): v for k, v in alternatives.items()}
+                    current, problem = moved.fit, moved.problem or problem
+                    continue
             accepted.append(chosen.candidate)
             current, problem = chosen.fit, chosen.problem
-            runner = ambiguous(finals, chosen, margin)
-            if runner is not None:
-                alternatives[chosen.candidate.label] = (self._alternative(runner, margin),)
+            runners = ambiguous(finals, chosen, margin)
+            if runners:
+                alternatives[chosen.candidate.label] = tuple(self._alternative(r, margin)
+                                                             for r in runners)
+            for runner in runners:
                 try:
                     measured += measurements(problem, chosen.fit, runner.fit,
                                              (chosen.candidate.label, runner.candidate.label),
@@ -625,7 +694,7 @@ class _Diagnosis(_Placement):
             accepted, current, problem, gone = self.backward(problem, current, accepted, n,
                                                              step, self.thresholds[-1])
             dropped += gone
-            if newest not in accepted:
+            if newest.label not in {a.label for a in accepted}:
                 break  # the step added nothing that holds: the search has converged
             # the model with its effects must still be resolved by its mesh (an
             # attachment between nodes is represented to O(h^3) only)
@@ -659,7 +728,9 @@ class _Diagnosis(_Placement):
 
     def step(self, problem, current, cands, accepted, step, n, signature, tests):
         """One forward step: screen, refit, choose. Returns (the chosen full refit or
-        None, every full refit of the step)."""
+        None, every full refit of the step, a model-form candidate and the finalist
+        refitted with it that beat the chosen one together (:meth:`with_form`) or
+        None)."""
         s = self.settings
         refs = self.refs
         pred = problem.predictor(current.terms)
@@ -667,7 +738,7 @@ class _Diagnosis(_Placement):
             cur.theta, t.actuators, t.sensors, test=t.name), tests)
         screened = screen(problem, current, cands, accepted, refs, step, self.tried)
         if not screened:
-            return None, []
+            return None, [], None
         # the threshold grows with the number of candidates tried (look-elsewhere: the
         # best of M noise-only chi2 drops is about 2 ln M)
         threshold = s.threshold + 2.0 * np.log(max(len(screened), 1))
@@ -679,7 +750,7 @@ class _Diagnosis(_Placement):
             self.tried.extend(Tried(step, sc.candidate.label, sc.candidate.effect,
                                     sc.candidate.options, sc.drop, status="at the noise level")
                               for sc in screened)
-            return None, []
+            return None, [], None
         # candidates a residual signature points at start where it points (a delay from
         # the matched-delay profile, a gain from the magnitude ratio), with the declared
         # parameters of the magnitude fit at the first step: a first-order score from
@@ -708,7 +779,7 @@ class _Diagnosis(_Placement):
                      1) - (k - 1) * np.log(n) < threshold:
             self.tried.extend(Tried(step, sc.candidate.label, sc.candidate.effect,
                                     sc.candidate.options, sc.drop) for sc in screened)
-            return None, []
+            return None, [], None
         results: dict[str, Refit | None] = {}
         chosen = shortlist(screened, best=s.refits, factor=3.0)
         for sc in screened:
@@ -775,14 +846,118 @@ class _Diagnosis(_Placement):
                            f"of the residual's excess over the noise, less than "
                            f"{100 * s.excess_share:g} %"))
         if not finals:
-            return None, finals
+            return None, finals, None
         # every located contender is placed between the nodes before the choice: a mass
         # between two nodes, held at the nearer one, loses to a joint's two parameters
         best_bic = max(r.delta_bic for r in finals)
+        unplaced = finals
         finals = [self.refine_position(problem, current, accepted, r, n, step, tests)
                   if r.candidate.node is not None and r.delta_bic >= 0.5 * best_bic else r
                   for r in finals]
-        return max(finals, key=lambda r: r.delta_bic), finals
+        best = max(finals, key=lambda r: r.delta_bic)
+        return best, finals, self.with_form(problem, current, accepted, cands, unplaced, best,
+                                            n, step, threshold, tests)
+
+    def with_form(self, problem, current, accepted, cands, finals, best, n, step, threshold,
+                  tests):
+        """A located finalist with the model-form candidate (:data:`MODEL_FORM`: the
+        element's shear and rotary inertia) that beats the step's best alone by more
+        than the threshold: (the form, the finalist's :class:`Refit` with the form in,
+        placed between nodes), or None.
+
+        A local effect fitted on a model whose form is wrong can lose to another that
+        mimics both (a joint on a Timoshenko article lost to a mass by 6000 of delta
+        BIC, and the shear terms could not then join the mass; with them the joint
+        brought the residual from 54 to 4 times the noise): the form is tried with each
+        of the two best located finalists at their nodes (a quick refit from their fits,
+        the form from its physical value); the best pair that beats ``best`` by more than
+        the threshold, counting the form's parameter, is completed and placed. Not with
+        ``best`` itself: the form beside the best is the next step's to judge, as every
+        other effect."""
+        form = next((c for c in cands if c.effect in MODEL_FORM), None)
+        if form is None or any(a.effect in MODEL_FORM for a in accepted):
+            return None
+        b = best.candidate
+        located = sorted((r for r in finals if r.candidate.node is not None and not (
+            r.candidate.effect == b.effect and abs(r.candidate.node - b.node) <= 1)),
+            key=lambda r: -r.delta_bic)[:2]
+        pairs = []
+        for r in located:
+            c = r.candidate
+            pr = r.problem or problem
+            terms = terms_of(accepted, r.fit.theta) + form.terms(
+                start=MODEL_FORM[form.effect]) + c.terms(start=fitted_own(c, r.fit.theta))
+            pc = replace(pr, scales={**pr.scales, **form.scales(self.refs),
+                                     **c.scales(self.refs)})
+            try:
+                quick = fit(pc, terms, start=r.fit.theta, quick=True)
+            except REFIT_ERRORS:
+                continue
+            if delta_bic(n, current.chi2, quick.chi2, len(c.fitted) + len(form.fitted)) > \
+                    best.delta_bic + threshold:
+                pairs.append((quick.chi2, c, pc, quick))
+        if not pairs:
+            return None
+        _, c, pc, quick = min(pairs, key=lambda x: x[0])
+        # the finalist placed with the form in: the model with the form is its "current"
+        with_form = [*accepted, form]
+        own = fitted_own(form, quick.theta)
+        pseudo = replace(current, names=current.names + form.keys(),
+                         theta={**current.theta, **{f"{form.label}.{k}": v
+                                                    for k, v in own.items()}},
+                         terms=terms_of(with_form, quick.theta))
+        try:
+            full = full_refit(pc, pseudo, with_form, Refit(
+                delta_bic(n, current.chi2, quick.chi2, len(c.fitted)), c, quick, "refitted"),
+                self.refs, n, tests)
+        except REFIT_ERRORS:
+            return None
+        placed = self.refine_position(pc, pseudo, with_form, full, n, step, tests)
+        dbic = placed.delta_bic - len(form.fitted) * np.log(n)
+        if not placed.physical or bounds_ok(form, placed.fit.theta, placed.fit.std,
+                                            form.scales(self.refs)) or \
+                dbic <= best.delta_bic + threshold:
+            return None
+        c = placed.candidate
+        own = fitted_own(c, placed.fit.theta)
+        self.tried.append(Tried(step, c.label, c.effect, c.options, float("nan"), dbic, own,
+                                c.effect_values(own), f"refitted with {form.label}: beats "
+                                f"{best.candidate.label} alone"))
+        return form, replace(placed, delta_bic=dbic)
+
+    def twin(self, accepted, chosen: Refit, problem, merged) -> Candidate | None:
+        """The accepted point attachment of the chosen one's kind and direction within
+        one element of it, not tried as a twin before (``merged``), or None: a second
+        mass beside a found one is as often the first one misplaced (its place searched
+        on a coarser mesh, or before a later effect) as a second mass."""
+        c = chosen.candidate
+        if c.effect not in POINT_EFFECTS or c.node is None:
+            return None
+        plant = (chosen.problem or problem).plant
+        x = plant.stations.get(c.options["station"])
+        for a in accepted:
+            if (a.effect == c.effect and a.node is not None and a.label not in merged
+                    and a.options.get("direction") == c.options.get("direction")
+                    and x is not None and a.options["station"] in problem.plant.stations
+                    and abs(problem.plant.stations[a.options["station"]] - x)
+                    <= 1.0 / problem.plant.n_elements + 1e-12):
+                return a
+        return None
+
+    def move(self, problem, current, accepted, twin: Candidate, n, step, tests
+             ) -> Refit | None:
+        """``twin`` placed and sized anew with the other accepted effects in (its
+        position searched between the nodes next to it: :meth:`refine_position`), or
+        None when the model without it cannot be refitted."""
+        others = [a for a in accepted if a is not twin]
+        pc = with_offsets(problem, current)
+        try:
+            without = fit(pc, terms_of(others, current.theta), start=current.theta)
+        except REFIT_ERRORS:
+            return None
+        here = Refit(delta_bic(n, without.chi2, current.chi2, len(twin.fitted)), twin,
+                     current, "refitted", pc)
+        return self.refine_position(pc, without, others, here, n, step, tests)
 
     def backward(self, problem, current, accepted, n, step, threshold):
         """Drop the effects that are not significant in the model with the others (each
@@ -795,6 +970,7 @@ class _Diagnosis(_Placement):
         for :meth:`evidence`.
         """
         gone = []
+        accepted, current, problem = self.held(problem, current, accepted)
         while len(accepted) > 1:
             worst = None
             for a in accepted:
@@ -807,9 +983,11 @@ class _Diagnosis(_Placement):
                 dbic = delta_bic(n, without.chi2, current.chi2, len(a.fitted))
                 self._evidence[a.label] = dbic
                 # an effect whose values a later refit moved out of their physical
-                # bounds (a joint's loss below 0) goes first, whatever it explains
-                rank = -np.inf if bounds_ok(a, current.theta, {}, a.scales(self.refs)) \
-                    else dbic
+                # bounds (a joint's loss below 0, a mass below 0: its constrained fit
+                # is no effect) goes first, whatever it explains
+                beyond = crossed(a, current.theta)
+                rank = -np.inf if (beyond and len(beyond) == len(a.fitted)) or bounds_ok(
+                    a, current.theta, {}, a.scales(self.refs)) else dbic
                 if (rank < threshold) and (worst is None or rank < worst[0]):
                     worst = (rank, a, without, pc)
             if worst is None:
@@ -826,7 +1004,25 @@ class _Diagnosis(_Placement):
                                     why))
             accepted = [x for x in accepted if x is not a]
             current, problem = without, with_offsets(pc, without)
+            accepted, current, problem = self.held(problem, current, accepted)
         return accepted, current, problem, gone
+
+    def held(self, problem, current, accepted):
+        """The accepted effects with the fitted parameters a later refit moved beyond a
+        physical bound, while others of theirs are within (a joint's damping below 0),
+        held at the bound and the model refitted (the constrained fit). Returns
+        (accepted, current, problem), unchanged when nothing crossed or the refit
+        fails."""
+        pins = {a.label: partly_crossed(a, current.theta) for a in accepted}
+        if not any(pins.values()):
+            return accepted, current, problem
+        pinned = [a.pin(pins[a.label]) if pins[a.label] else a for a in accepted]
+        try:
+            pc = with_offsets(problem, current)
+            refitted = fit(pc, terms_of(pinned, current.theta), start=current.theta)
+        except REFIT_ERRORS:
+            return accepted, current, problem
+        return pinned, refitted, with_offsets(pc, refitted)
 
     def evidence(self, problem, current, accepted, n, alternatives) -> list[Found]:
         """The found effects with their evidence in the final model (delta BIC of the
@@ -855,4 +1051,4 @@ class _Diagnosis(_Placement):
                            r.delta_bic, c.node, margin, x_m)
 
 
-__all__ = ["DiagnoseSettings", "Found", "Residual", "Tried", "diagnose"]
+__all__ = ["MODEL_FORM", "DiagnoseSettings", "Found", "Residual", "Tried", "diagnose"]

@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from truthbench.diagnose.candidates import hinge_parts
+from truthbench.diagnose.candidates import at_fraction, hinge_parts
 from truthbench.diagnose.fit import evaluate, refit_error
 from truthbench.diagnose.screen import POINT_EFFECTS, position_profile
 from truthbench.diagnose.search import (
@@ -75,13 +75,9 @@ class _Placement:
         start = adapted(near.theta, dict(zip(near.names, adapt, strict=True)))
 
         def quick_at(fr):
-            name = f"x{fr:.6f}"
-            moved_plant = replace(plant, stations={**plant.stations, name: float(fr)})
-            opts = {**c.options, "station": name}
-            label = f"{c.effect}@{name}" + (f".{opts['direction']}" if "direction" in opts
-                                            else "")
-            moved = replace(c, options=opts, label=label, node=int(round(fr * N)))
-            pm = replace(problem, plant=moved_plant)
+            moved = at_fraction(c, fr, N)
+            pm = replace(problem, plant=replace(plant, stations={
+                **plant.stations, moved.options["station"]: float(fr)}))
             return pm, refit(pm, current, accepted, moved, drop, np.array([strength]),
                              self.refs, n, step, self.tried, declared_start=start)
 
@@ -125,13 +121,10 @@ class _Placement:
         start_theta = {k: v for k, v in chosen.fit.theta.items() if k in current.names}
 
         def quick_at(fr):
-            name = f"x{fr:.6f}"
-            moved_plant = replace(plant, stations={**plant.stations, name: float(fr)})
-            moved = replace(c, options={**c.options, "station": name},
-                            label=f"{c.effect}@{name}.{c.options['direction']}",
-                            node=int(np.clip(np.floor(fr * N), 0, N - 1)),
+            moved = replace(at_fraction(c, fr, N), node=int(np.clip(np.floor(fr * N), 0, N - 1)),
                             parts=hinge_parts(fr, N))
-            pm = replace(problem, plant=moved_plant)
+            pm = replace(problem, plant=replace(plant, stations={
+                **plant.stations, moved.options["station"]: float(fr)}))
             return pm, refit(pm, current, accepted, moved, float("nan"),
                              np.array([own[p.name] for p in c.fitted]), self.refs, n, step,
                              self.tried, declared_start={**current.theta, **start_theta})

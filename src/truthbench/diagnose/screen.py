@@ -239,6 +239,39 @@ def point_profiles(problem, current, candidates, sizes: dict) -> dict:
     return results
 
 
+def beside_best(candidates, drops: dict, plant, share: float = 0.1) -> list:
+    """Point candidates at the midpoints of the elements either side of every node whose
+    screen (``drops``: label -> (drop, ...) of :func:`point_profiles`) is within
+    ``share`` of the best of its effect and direction.
+
+    A point attachment's exact profile falls to a half within about a quarter of an
+    element of where it is, so one between two nodes can screen below an attachment at
+    a node far from it that mimics it poorly (a 20 g mass a third of the way between two
+    nodes screened at half of a node elsewhere, and refitted at either neighbour into a
+    local minimum of a few grams). Grounded attachments stay at the declared supports
+    (``[plant] supports``).
+    """
+    from truthbench.diagnose.candidates import GROUNDING, at_fraction
+
+    n = plant.n_elements
+    nodal = [c for c in candidates if c.effect in POINT_EFFECTS and c.label in drops
+             and c.node is not None and c.options.get("station") == f"n{c.node}"
+             and not (c.effect in GROUNDING and getattr(plant, "supports", None))]
+    best: dict = {}
+    for c in nodal:
+        key = (c.effect, c.options.get("direction"))
+        best[key] = max(best.get(key, 0.0), drops[c.label][0])
+    out = {}
+    for c in nodal:
+        if not drops[c.label][0] >= share * best[(c.effect, c.options.get("direction"))] > 0:
+            continue
+        for half in (-0.5, 0.5):
+            if 0 <= c.node + half <= n:
+                m = at_fraction(c, (c.node + half) / n, n)
+                out.setdefault(m.label, m)
+    return list(out.values())
+
+
 AFFINE_EFFECTS = {"joint": (np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9]),
                              np.array([0.0, 0.3, 1.0, 3.0, 10.0, 30.0]))}
 """Structural effects whose matrices change affinely in their fitted parameters, screened
@@ -359,5 +392,5 @@ def position_profile(problem, current, candidate, fractions: Sequence[float],
     return out
 
 
-__all__ = ["AFFINE_EFFECTS", "GRID", "POINT_EFFECTS", "point_profiles", "position_profile",
-           "structural_profiles"]
+__all__ = ["AFFINE_EFFECTS", "GRID", "POINT_EFFECTS", "beside_best", "point_profiles",
+           "position_profile", "structural_profiles"]

@@ -29,7 +29,7 @@ from truthbench.diagnose.fit import (
     with_offsets,
 )
 from truthbench.diagnose.residual import Residual, matched_delay
-from truthbench.diagnose.screen import point_profiles, structural_profiles
+from truthbench.diagnose.screen import beside_best, point_profiles, structural_profiles
 from truthbench.errors import IdentifiabilityError, ModelError
 
 BOUND_SLACK = 0.05
@@ -115,6 +115,26 @@ def bounds_ok(cand: Candidate, values: Mapping[str, float], std: Mapping[str, fl
         if p.maximum is not None and v > p.maximum + slack:
             return f"unphysical: {p.name} = {v:.4g} above {p.maximum:g}"
     return None
+
+
+def crossed(cand: Candidate, values: Mapping[str, float]) -> dict[str, float]:
+    """The candidate's fitted parameters beyond a physical bound in ``values`` (no
+    slack), own name -> the bound crossed."""
+    out = {}
+    for p in cand.fitted:
+        v = values[f"{cand.label}.{p.name}"]
+        if p.minimum is not None and v < p.minimum:
+            out[p.name] = p.minimum
+        elif p.maximum is not None and v > p.maximum:
+            out[p.name] = p.maximum
+    return out
+
+
+def partly_crossed(cand: Candidate, values: Mapping[str, float]) -> dict[str, float]:
+    """:func:`crossed` when some but not all of the fitted parameters crossed a bound
+    (the constrained fit holds those at it and fits the others), else empty."""
+    held = crossed(cand, values)
+    return held if len(held) < len(cand.fitted) else {}
 
 
 def delta_bic(n: float, chi2_without: float, chi2_with: float, k: int) -> float:
@@ -245,15 +265,24 @@ def screen(problem: Problem, current: Fit, cands, accepted, refs, step: int,
     """Every candidate's chi2 drop, best first.
 
     Point attachments (springs, dashpots, masses) get their exact profile over a grid of
-    strengths (:func:`~.screen.point_profiles`), joints and friction theirs over a grid
-    of their parameters (:func:`~.screen.structural_profiles`); the others the
-    first-order (score) drop, and, for the ``per_effect`` best of each effect, the drop
-    along that step (:func:`line_search`). A candidate the model refuses is recorded in ``tried``.
+    strengths (:func:`~.screen.point_profiles`), at the nodes and at the element
+    midpoints beside the best nodes (:func:`~.screen.beside_best`), joints and friction
+    theirs over a grid of their parameters (:func:`~.screen.structural_profiles`); the
+    others the first-order (score) drop, and, for the ``per_effect`` best of each effect,
+    the drop along that step (:func:`line_search`). A candidate the model refuses is
+    recorded in ``tried``.
     """
     out = []
     todo = [c for c in cands if not any(c.label == a.label for a in accepted)]
     sizes = {k: v for c in todo for k, v in c.scales(refs).items()}
     exact = point_profiles(problem, current, todo, sizes)
+    # and between the nodes, beside the best of them
+    between = [m for m in beside_best(todo, exact, problem.plant)
+               if m.label not in exact and not any(m.label == a.label for a in accepted)]
+    if between:
+        sizes.update({k: v for c in between for k, v in c.scales(refs).items()})
+        exact.update(point_profiles(problem, current, between, sizes))
+        todo += between
     exact.update(structural_profiles(problem, current, todo, sizes))
     for c in todo:
         if c.label in exact:  # low-rank structural changes: the exact profile on a grid
@@ -331,8 +360,18 @@ def refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
     status = bounds_ok(c, cf.theta, {}, c.scales(refs)) or ("refitted" if cf.converged
                                              else "refitted (iteration cap)")
     tried.append(Tried(step, c.label, c.effect, c.options, drop, dbic, own,
-                       c.effect_values(own), status))
+                       c.effect_values(own), status + _held(c)))
+    held = partly_crossed(c, cf.theta) if status.startswith("unphysical") else {}
+    if held:  # the constrained fit: those parameters held at their bound
+        pinned = c.pin(held)
+        return refit(problem, current, accepted, pinned, drop,
+                     np.array([own[p.name] for p in pinned.fitted]), refs, n, step, tried,
+                     declared_start={k: cf.theta[k] for k in current.names})
     return Refit(dbic, c, cf, status)
+
+
+def _held(c: Candidate) -> str:
+    return "".join(f"; {k} held at its bound {v:g}" for k, v in c.pinned)
 
 
 def full_refit(problem: Problem, current: Fit, accepted, quick: Refit, refs, n, tests
@@ -354,8 +393,15 @@ def full_refit(problem: Problem, current: Fit, accepted, quick: Refit, refs, n, 
     pc = with_offsets(pc, full)
     full = fit(pc, full.terms, start=full.theta)
     dbic = delta_bic(n, current.chi2, full.chi2, len(c.fitted))
-    status = bounds_ok(c, full.theta, full.std, c.scales(refs)) or "refitted"
-    return Refit(dbic, c, full, status, pc)
+    status = bounds_ok(c, full.theta, full.std, c.scales(refs))
+    held = partly_crossed(c, full.theta) if status else {}
+    if held:  # the constrained fit: those parameters held at their bound
+        c = c.pin(held)
+        full = fit(pc, terms_of(accepted, full.theta) + c.terms(start=fitted_own(c, full.theta)),
+                   start=full.theta)
+        dbic = delta_bic(n, current.chi2, full.chi2, len(c.fitted))
+        status = bounds_ok(c, full.theta, full.std, c.scales(refs))
+    return Refit(dbic, c, full, (status or "refitted") + _held(c), pc)
 
 
 def relevel(problem, c: Candidate, accepted, fit_, tests, passes: int = 2):
@@ -372,6 +418,7 @@ def relevel(problem, c: Candidate, accepted, fit_, tests, passes: int = 2):
     return c, fit_
 
 
-__all__ = ["BOUND_SLACK", "Refit", "Screened", "Tried", "adapted", "bounds_ok", "delta_bic",
+__all__ = ["BOUND_SLACK", "Refit", "Screened", "Tried", "adapted", "bounds_ok", "crossed",
+           "delta_bic", "partly_crossed",
            "full_refit", "line_search", "refit", "relevel", "screen", "shortlist",
            "signature_start"]

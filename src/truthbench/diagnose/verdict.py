@@ -200,25 +200,26 @@ def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, st
     return tuple(out)
 
 
-def ambiguous(finals: Sequence, chosen, margin: float, *, nodes_apart: int = 2):
-    """The runner-up that explains the data within ``margin`` of delta BIC of the chosen
-    one, or None: the best of the other effects, or of the same effect at a location
+def ambiguous(finals: Sequence, chosen, margin: float, *, nodes_apart: int = 2) -> list:
+    """The runners-up that explain the data within ``margin`` of delta BIC of the chosen
+    one, best first: the best of each other effect, and of the same effect at a location
     more than ``nodes_apart`` nodes away (a neighbour is the same finding, not an
-    alternative)."""
-    best = None
-    for r in finals:
+    alternative). Empty when the chosen one stands alone."""
+    out = []
+    for r in sorted(finals, key=lambda r: -r.delta_bic):
         c = r.candidate
-        if c.label == chosen.candidate.label:
+        if c.label == chosen.candidate.label or not r.physical:
             continue
         same_place = (c.effect == chosen.candidate.effect and
                       (c.node is None or chosen.candidate.node is None or
                        abs(c.node - chosen.candidate.node) <= nodes_apart))
-        if same_place or not r.physical:
+        if same_place or chosen.delta_bic - r.delta_bic > margin:
             continue
-        if chosen.delta_bic - r.delta_bic <= margin and (best is None or
-                                                         r.delta_bic > best.delta_bic):
-            best = r
-    return best
+        if any(x.candidate.effect == c.effect and (c.node is None or abs(
+                x.candidate.node - c.node) <= nodes_apart) for x in out):
+            continue  # a better runner-up of this effect at this place is in
+        out.append(r)
+    return out
 
 
 #: Effects that contain simpler ones as a limit: a second-order low-pass with a large
@@ -244,20 +245,31 @@ def far_pole_hz(a_s2: float, b_s: float) -> float:
 
 
 def parsimonious(finals: Sequence, chosen, margin: float, f_max_hz: float):
-    """``chosen``, or the simpler effect it contains (:data:`NESTED`), when that was
-    refitted and either explains the data within ``margin`` of delta BIC or ``chosen``'s
-    fit is overdamped with its upper pole beyond :data:`FAR_POLE` times ``f_max_hz``.
-    Of two nested explanations the data cannot tell apart, the one with fewer
-    parameters is stated first (the other stays the runner-up)."""
+    """``chosen``, or a simpler explanation: the simpler effect it contains
+    (:data:`NESTED`), when that was refitted and either explains the data within
+    ``margin`` of delta BIC or ``chosen``'s fit is overdamped with its upper pole beyond
+    :data:`FAR_POLE` times ``f_max_hz``; then any finalist with fewer parameters within
+    ``margin`` (the fewest, then the best). Of explanations the data cannot tell apart,
+    the one with fewer parameters is stated first (the others stay runners-up)."""
     simpler = [r for r in finals if r.physical
                and r.candidate.effect in NESTED.get(chosen.candidate.effect, ())]
-    if not simpler:
-        return chosen
-    values = fitted_own(chosen.candidate, chosen.fit.theta)
-    unresolved = far_pole_hz(values.get("a_s2", 0.0), values.get("b_s", 0.0)) \
-        > FAR_POLE * f_max_hz
-    close = [r for r in simpler if unresolved or chosen.delta_bic - r.delta_bic <= margin]
-    return max(close, key=lambda r: r.delta_bic, default=chosen)
+    if simpler:
+        values = fitted_own(chosen.candidate, chosen.fit.theta)
+        unresolved = far_pole_hz(values.get("a_s2", 0.0), values.get("b_s", 0.0)) \
+            > FAR_POLE * f_max_hz
+        close = [r for r in simpler
+                 if unresolved or chosen.delta_bic - r.delta_bic <= margin]
+        chosen = max(close, key=lambda r: r.delta_bic, default=chosen)
+    # of any explanations the data cannot tell apart, one with fewer parameters (those
+    # held at a bound counted: the effect's own count) is stated first
+    fewer = [r for r in finals if r.physical and size(r.candidate) < size(chosen.candidate)
+             and chosen.delta_bic - r.delta_bic <= margin]
+    return max(fewer, key=lambda r: (-size(r.candidate), r.delta_bic), default=chosen)
+
+
+def size(c) -> int:
+    """A candidate's parameter count, those held at a bound included."""
+    return len(c.fitted) + len(c.pinned)
 
 
 __all__ = ["FAR_POLE", "NESTED", "Alternative", "Measurement", "ambiguous", "far_pole_hz",
