@@ -8,7 +8,12 @@ the finite-difference columns ``dG/dp_k`` over all lines and pairs, real and ima
 parts one above the other, so that ``S dp = vec(G_D - G_M)`` has a real solution. It is
 solved by a (weighted) least-squares pseudoinverse and iterated: the model is
 re-evaluated at the new parameters and the sensitivities recomputed, until the
-relative parameter change stops.
+relative parameter change stops. From the second iteration on, the step also carries
+the Hessian term Gauss-Newton leaves out (the residuals' curvature), estimated from how
+the sensitivities change along the steps taken (the structured secant update of
+Dennis, Gay and Welsch, :func:`secant_curvature`): a model that cannot fit the data
+exactly leaves a residual at the minimum that makes Gauss-Newton converge only linearly
+(0.4 per iteration on the hub beam), and the secant makes it superlinear.
 
 Identifiability is checked at every iteration on the weighted ``S`` with its columns
 scaled to unit norm (so that a parameter with a small but clean effect is not mistaken
@@ -280,6 +285,71 @@ def _stepped(value: float, d: float, scale: float | None) -> float:
     return value + d * scale if scale is not None else value * (1 + d)
 
 
+def _try(predict, theta, names, dx, additive, cost):
+    """The parameters ``theta`` moved by ``dx`` (log-parameters, or units of an additive
+    parameter's scale), the prediction there and its cost (inf where the model refuses
+    the values)."""
+    trial = dict(theta)
+    for n, d in zip(names, dx, strict=True):
+        trial[n] = theta[n] + d * additive[n] if n in additive else theta[n] * np.exp(d)
+    try:
+        G_trial = np.asarray(predict(trial))
+        return trial, G_trial, cost(G_trial)
+    except ValueError:  # the model refused these values: treat as no decrease
+        return trial, None, np.inf
+
+
+def _newton_step(R: np.ndarray, curvature: np.ndarray, g: np.ndarray) -> np.ndarray | None:
+    """The step ``(R^T R + curvature)^-1 g``, or None when there is no curvature yet or
+    the Hessian it makes is not positive definite."""
+    if not np.any(curvature):
+        return None
+    H = R.T @ R + curvature
+    try:
+        L = np.linalg.cholesky(H)
+    except np.linalg.LinAlgError:
+        return None
+    return np.linalg.solve(L.T, np.linalg.solve(L, g))
+
+
+def secant_curvature(curvature: np.ndarray, step: np.ndarray, A_old: np.ndarray,
+                     g_old: np.ndarray, A: np.ndarray, b: np.ndarray,
+                     g: np.ndarray) -> np.ndarray:
+    """The structured secant update of the residuals' curvature term (Dennis, Gay and
+    Welsch 1981, the NL2SOL update).
+
+    The cost ``|b(x)|^2`` (``b`` the weighted residual, ``-A`` its Jacobian) has the
+    Hessian ``2 (A^T A + T)`` with ``T = sum_i b_i d2b_i/dx2``, the term Gauss-Newton
+    leaves out. Where the residual stays large at the minimum (a model that cannot fit
+    the data exactly) ``T`` is not small against ``A^T A`` and Gauss-Newton converges
+    linearly, at the rate of ``T`` relative to ``A^T A`` along the slowest direction.
+    After a step ``s`` from the iterate with ``A_old`` (gradient ``-2 g_old``,
+    ``g = A^T b``) the update makes ``T_new s = y# = (A_old - A)^T b`` (what the
+    Jacobian's change along the step says of ``T``), a symmetric rank-two change of
+    ``T`` that is smallest in the metric of the full gradient change
+    ``y = g_old - g``, after sizing ``T`` down by ``min(1, |s^T y#| / |s^T T s|)``.
+    Where ``s^T y <= 0`` (the cost is not convex along the step) the curvature is
+    dropped (Gauss-Newton).
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        The updated, symmetric ``T``.
+    """
+    y = g_old - g
+    ys = float(y @ step)
+    if not ys > 0:
+        return np.zeros_like(curvature)
+    y_sharp = A_old.T @ b - g
+    sTs = float(step @ curvature @ step)
+    if sTs != 0:
+        curvature = curvature * min(1.0, abs(float(step @ y_sharp)) / abs(sTs))
+    z = y_sharp - curvature @ step
+    out = (curvature + (np.outer(z, y) + np.outer(y, z)) / ys
+           - float(z @ step) * np.outer(y, y) / ys**2)
+    return 0.5 * (out + out.T)
+
+
 def finite_difference_update(
     predict: Callable[[Mapping[str, float]], np.ndarray],
     data: np.ndarray,
@@ -406,6 +476,8 @@ def finite_difference_update(
     s = Vt = None
     mu = 0.0  # Levenberg-Marquardt damping, 0 = plain Gauss-Newton (Eq. 10.21)
     dx = np.zeros(p)
+    curvature = np.zeros((p, p))  # secant estimate of the residuals' curvature term
+    last = None  # (step, A, A^T b) of the last accepted iteration
     for _ in range(max_iterations):
         S = None if jacobian is None else jacobian(theta, names, additive=additive)
         if S is None:
@@ -423,36 +495,45 @@ def finite_difference_update(
                            data="the model FRFs at the data's frequencies, outputs and "
                            "inputs")
         U, s, Vt = np.linalg.svd(R, full_matrices=False)
-        Ub = U.T @ (Q.T @ b)
+        Qb = Q.T @ b
+        Ub = U.T @ Qb
+        g = R.T @ Qb  # A^T b: minus half the cost's gradient
+        if last is not None:
+            curvature = secant_curvature(curvature, *last, A, b, g)
         # Steps are in log-parameters (relative changes that keep values positive).
-        # Try the Gauss-Newton step; if the cost rises, damp it (Levenberg-Marquardt in
-        # the SVD basis) until it falls. Lightly damped FRFs make the cost strongly
-        # non-quadratic once peaks have moved by more than their bandwidth.
-        for _attempt in range(30):
-            dx = Vt.T @ (Ub * s / (s**2 + mu * s[0] ** 2))
-            dx = dx * min(1.0, max_step / max(np.abs(dx).max(), 1e-300))
-            trial = dict(theta)
-            for n, d in zip(names, dx, strict=True):
-                trial[n] = theta[n] + d * additive[n] if n in additive else theta[n] * np.exp(d)
-            try:
-                G_trial = np.asarray(predict(trial))
-                c_trial = cost(G_trial)
-            except ValueError:  # the model refused these values: treat as no decrease
-                c_trial = np.inf
-            if c_trial <= costs[-1]:
-                mu = mu / 10 if mu > 1e-12 else 0.0
-                break
-            if np.max(np.abs(dx)) < tolerance:
-                # even a step below the tolerance raises the cost: a minimum to working
-                # precision (damping it further only shrinks it, until the cost stops
-                # changing at its rounding)
-                converged = True
-                break
-            mu = max(10 * mu, 1e-6)
-        else:
-            break  # no decrease possible: at a minimum to working precision
+        # First the quasi-Newton step of the cost's Hessian A^T A + curvature, when the
+        # secant has seen a curvature; if it does not lower the cost, the Gauss-Newton
+        # step, and if the cost rises, damp it (Levenberg-Marquardt in the SVD basis)
+        # until it falls. Lightly damped FRFs make the cost strongly non-quadratic once
+        # peaks have moved by more than their bandwidth.
+        accepted = False
+        qn = _newton_step(R, curvature, g)
+        if qn is not None:
+            dx = qn * min(1.0, max_step / max(np.abs(qn).max(), 1e-300))
+            trial, G_trial, c_trial = _try(predict, theta, names, dx, additive, cost)
+            accepted = c_trial <= costs[-1]
+            if not accepted:  # the secant's curvature misled: back to Gauss-Newton
+                curvature = np.zeros((p, p))
+        if not accepted:
+            for _attempt in range(30):
+                dx = Vt.T @ (Ub * s / (s**2 + mu * s[0] ** 2))
+                dx = dx * min(1.0, max_step / max(np.abs(dx).max(), 1e-300))
+                trial, G_trial, c_trial = _try(predict, theta, names, dx, additive, cost)
+                if c_trial <= costs[-1]:
+                    mu = mu / 10 if mu > 1e-12 else 0.0
+                    break
+                if np.max(np.abs(dx)) < tolerance:
+                    # even a step below the tolerance raises the cost: a minimum to
+                    # working precision (damping it further only shrinks it, until the
+                    # cost stops changing at its rounding)
+                    converged = True
+                    break
+                mu = max(10 * mu, 1e-6)
+            else:
+                break  # no decrease possible: at a minimum to working precision
         if converged:
             break
+        last = (dx, A, g)
         theta, G = trial, G_trial
         history.append(np.array([theta[n] for n in names]))
         costs.append(c_trial)
