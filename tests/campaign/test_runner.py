@@ -219,3 +219,31 @@ def test_sensitivity_updates_the_hub_damper_from_identified_damping():
         pytest.approx(0, abs=0.02)
     assert got["E_pa"] / trial.truth["E_pa"] - 1 == pytest.approx(0, abs=1e-3)
     assert trial.update.row_counts["damping"] > 0
+
+
+@pytest.mark.slow
+def test_modal_update_starts_the_frf_update_at_the_same_minimum():
+    """With both updaters the modal one runs first and the FRF update starts from its
+    values where they fit the FRFs better than the nominal model (history[1]); either
+    way it ends at the minimum the FRF update alone finds (both stop on steps below the
+    tolerance 1e-7, converging superlinearly: 1e-6 apart at most). Results are reported
+    in the declared order."""
+    from .conftest import full_dict
+
+    d = full_dict()
+    both = run_campaign(parse_campaign(d), trials=2)
+    d["update"]["method"] = "finite_difference"
+    alone = run_campaign(parse_campaign(d), trials=2)
+    started = 0
+    for a, b in zip(both.trials, alone.trials, strict=True):
+        assert list(a.comparison) == ["finite_difference", "sensitivity"]
+        assert list(a.accuracy) == ["initial", "finite_difference", "sensitivity", "updated"]
+        fd, sens = a.comparison["finite_difference"], a.comparison["sensitivity"]
+        assert fd is a.update and fd.converged
+        if np.array_equal(fd.history[1], sens.values):
+            assert fd.cost_history[1] < fd.cost_history[0]
+            started += 1
+        else:  # the modal fit was worse than nominal: the same path as alone
+            np.testing.assert_array_equal(fd.history, b.update.history)
+        np.testing.assert_allclose(fd.values, b.update.values, rtol=1e-6)
+    assert started >= 1

@@ -194,3 +194,22 @@ def test_large_residual_converges_to_scipy_minimum_faster_than_gauss_newton(monk
     assert gn.n_iterations >= int(np.log(1e-9) / np.log(0.271))
     assert qn.n_iterations <= gn.n_iterations - 4
 
+
+def test_start_is_used_when_it_fits_better():
+    """``start`` at the minimum: history[0] stays theta0 (``initial``), history[1] is the
+    start and the iteration ends there; a start that fits worse than theta0 is not
+    used; a non-positive start of a relative parameter is refused."""
+    predict, data, x_ref = _exponential_problem(3.0)
+    k_min = 0.7 * np.exp(x_ref)
+    res = finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None,
+                                   start={"k": k_min})
+    assert res.converged and res.initial[0] == 0.7 and res.history[1, 0] == k_min
+    assert res.n_iterations <= 3
+    assert res.values[0] == pytest.approx(k_min, rel=1e-6)
+    plain = finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None)
+    worse = finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None,
+                                     start={"k": 5.0})
+    np.testing.assert_array_equal(worse.history, plain.history)
+    with pytest.raises(ValueError, match="start values"):
+        finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None,
+                                 start={"k": -1.0})

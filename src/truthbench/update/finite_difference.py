@@ -188,7 +188,7 @@ class IterationSettings(Configurable):
 class FiniteDifferenceUpdater(IterationSettings):
     """Finite-difference FRF updating (Eq. 10.12-10.21, :func:`finite_difference_update`,
     whose defaults are these). Needs ``predict_frf``, ``frf_data`` and ``n_pairs`` of the
-    :class:`~truthbench.update.UpdateProblem`; uses ``frf_weights`` and ``additive``.
+    :class:`~truthbench.update.UpdateProblem`; uses ``frf_weights``, ``additive`` and ``start``.
     Updates any parameter the predictor can vary."""
 
     name: ClassVar[str] = "finite_difference"
@@ -212,7 +212,7 @@ class FiniteDifferenceUpdater(IterationSettings):
             problem.predict_frf, problem.frf_data, problem.theta0, problem.names,
             n_pairs=int(problem.n_pairs), weights=problem.frf_weights,
             additive=dict(problem.additive) if problem.additive else None,
-            **self.settings())
+            start=problem.start, **self.settings())
 
 
 def _stack(z: np.ndarray) -> np.ndarray:
@@ -299,6 +299,28 @@ def _try(predict, theta, names, dx, additive, cost):
         return trial, None, np.inf
 
 
+def _start(predict, theta0, names, start, additive, cost, costs, G0):
+    """``(theta, G)`` at ``start`` (appending its cost to ``costs``) when it lowers the
+    cost, else ``(theta0, G0)``."""
+    bad = {n: v for n, v in start.items() if n in names and not (
+        np.isfinite(v) and (n in additive or v * theta0[n] > 0))}
+    if bad:
+        raise ValueError(f"start values must be finite and, for relative parameters, of "
+                         f"their starting value's sign; got {bad}")
+    moved = {**theta0, **{n: float(start[n]) for n in names if n in start}}
+    if all(moved[n] == theta0[n] for n in names):
+        return theta0, G0
+    try:
+        G = np.asarray(predict(moved))
+        c = cost(G)
+    except ValueError:  # the model refuses the start
+        return theta0, G0
+    if not c < costs[-1]:
+        return theta0, G0
+    costs.append(c)
+    return moved, G
+
+
 def _newton_step(R: np.ndarray, curvature: np.ndarray, g: np.ndarray) -> np.ndarray | None:
     """The step ``(R^T R + curvature)^-1 g``, or None when there is no curvature yet or
     the Hessian it makes is not positive definite."""
@@ -366,6 +388,7 @@ def finite_difference_update(
     max_step: float = FiniteDifferenceUpdater.max_step,
     additive: Mapping[str, float] | None = None,
     jacobian: str | Callable | None = "auto",
+    start: Mapping[str, float] | None = None,
 ) -> UpdateResult:
     """Iterated finite-difference frequency-domain update (Eq. 10.12-10.21).
 
@@ -417,6 +440,15 @@ def finite_difference_update(
         Jacobian that returns None at some ``theta`` falls back to finite differences
         there. The fixed point (the converged parameters) does not depend on it; the
         path and the iteration count may differ at the level of the Jacobian's error.
+    start : mapping, optional
+        Values of (some of) ``names`` to start the iteration from instead of
+        ``theta0``, e.g. a modal update's result: the FRF cost of lightly damped
+        structures is a narrow valley around resonances that line up, and Gauss-Newton
+        steps from outside it move a peak by about its bandwidth per iteration. Used
+        when its cost is below ``theta0``'s; ``initial`` and ``history[0]`` stay
+        ``theta0``'s and ``history[1]`` is the start (counted as an iteration, not
+        against ``max_iterations``). The minimum found is that of the valley the
+        iteration starts in.
 
     Returns
     -------
@@ -472,6 +504,11 @@ def finite_difference_update(
                          f" got {jacobian!r}")
     history = [base.copy()]
     costs = [cost(G)]
+    if start is not None:
+        moved, G = _start(predict, theta, names, start, additive, cost, costs, G)
+        if moved is not theta:
+            theta = moved
+            history.append(np.array([theta[n] for n in names], dtype=float))
     converged = False
     s = Vt = None
     mu = 0.0  # Levenberg-Marquardt damping, 0 = plain Gauss-Newton (Eq. 10.21)
