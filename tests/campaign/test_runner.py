@@ -247,3 +247,43 @@ def test_modal_update_starts_the_frf_update_at_the_same_minimum():
             np.testing.assert_array_equal(fd.history, b.update.history)
         np.testing.assert_allclose(fd.values, b.update.values, rtol=1e-6)
     assert started >= 1
+
+
+def test_plant_modes_at_sensors_remembers_by_content(small_dict):
+    """The remembered modes are those of the model built from the same content (the same
+    arrays, bit for bit); the same content from another object is the same entry, and a
+    changed parameter or structural addition is another."""
+    from dataclasses import replace
+
+    from truthbench.campaign.metrics import (
+        displacement_sensors,
+        modes_at_sensors,
+        plant_modes_at_sensors,
+    )
+    from truthbench.campaign.plan import CampaignPlan
+    from truthbench.campaign.truth import build_hardware
+
+    spec = parse_campaign(small_dict)
+    plan = CampaignPlan.compile(spec)
+    sensors = displacement_sensors(plan.tests[0].sensors)
+    setup = build_hardware(plan, plan.tests[0], 0, spec.campaign.seed)
+    band = (10.0, 400.0)
+    got = plant_modes_at_sensors(setup.plant, dict(setup.parameters), sensors, band, 30,
+                                 setup.additions)
+    direct = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors,
+                                                setup.additions), sensors, band, 30)
+    for name in ("freq_hz", "damping_ratio", "shapes"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(direct, name))
+    again = plant_modes_at_sensors(replace(setup.plant), dict(setup.parameters),
+                                   list(sensors), band, 30, replace(setup.additions))
+    assert again is got
+    stiffer = {**setup.parameters, "E_pa": setup.parameters["E_pa"] * 1.01}
+    other = plant_modes_at_sensors(setup.plant, stiffer, sensors, band, 30, setup.additions)
+    direct = modes_at_sensors(setup.plant.build(stiffer, [], sensors, setup.additions),
+                              sensors, band, 30)
+    np.testing.assert_array_equal(other.freq_hz, direct.freq_hz)
+    assert np.all(other.freq_hz > got.freq_hz)
+    bare = plant_modes_at_sensors(setup.plant, setup.parameters, sensors, band, 30)
+    direct = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors), sensors,
+                              band, 30)
+    np.testing.assert_array_equal(bare.freq_hz, direct.freq_hz)
