@@ -193,6 +193,9 @@ class _MemoBuild:
 
     def __init__(self, plant, size: int = 4):
         self.plant, self.size, self._cache = plant, size, {}
+        # what its models depend on besides theta: macroelements taken at a theta serve
+        # every trial (truthbench.update.jacobian.MacroelementCache)
+        self.content_key = ("plant.build", repr(plant))
 
     def __call__(self, theta):
         try:
