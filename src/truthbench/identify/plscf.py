@@ -380,9 +380,14 @@ def _lag_sums(theta: np.ndarray, H: np.ndarray, p: int):
     """Block-Toeplitz normal matrices R, S (per output) and sum_o T_o at order ``p``."""
     nf, no, ni = H.shape
     # the real parts of sum_f exp(j k theta_f) X_f for lags k = -p..p from the cosines
-    # and sines of k = 0..p (even and odd in k): real products only
-    arg = np.outer(np.arange(p + 1), theta)
-    c, s = np.cos(arg), np.sin(arg)  # (p + 1, nf)
+    # and sines of k = 0..p (even and odd in k): real products only. The powers
+    # exp(j k theta) by repeated multiplication (relative rounding below (k + 1) eps)
+    w = np.exp(1j * theta)
+    powers = np.empty((p + 1, nf), complex)
+    powers[0] = 1.0
+    for k in range(1, p + 1):
+        np.multiply(powers[k - 1], w, out=powers[k])
+    c, s = powers.real, powers.imag  # (p + 1, nf)
 
     def lagged(X):
         """``Re sum_f exp(j k theta_f) X_f`` for k = -p..p, shape (2p + 1, ...)."""
