@@ -166,11 +166,11 @@ def test_secant_curvature_satisfies_the_secant_equation():
     y = g_old - g
     step = y + 0.1 * rng.normal(size=3)  # s^T y > 0
     assert step @ y > 0
-    T = secant_curvature(T0, step, A_old, g_old, A, b, g)
+    T = secant_curvature(T0, step, g_old, g, A_old.T @ b)
     # O(1) numbers through a few dozen operations: rounding about 1e-15
     np.testing.assert_allclose(T, T.T, rtol=0, atol=1e-13)
     np.testing.assert_allclose(T @ step, (A_old - A).T @ b, rtol=1e-12, atol=1e-12)
-    assert not np.any(secant_curvature(T0, -y, A_old, g_old, A, b, g))
+    assert not np.any(secant_curvature(T0, -y, g_old, g, A_old.T @ b))
 
 
 def test_large_residual_converges_to_scipy_minimum_faster_than_gauss_newton(monkeypatch):
@@ -213,3 +213,41 @@ def test_start_is_used_when_it_fits_better():
     with pytest.raises(ValueError, match="start values"):
         finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None,
                                  start={"k": -1.0})
+
+
+def test_triangular_factor_from_the_normal_equations_matches_householder_qr():
+    """R and Q^T b of the stacked real and imaginary parts: from the normal equations
+    for a well-conditioned matrix (R^T R = A^T A and the least-squares solution
+    R^-1 Q^T b agree with numpy's QR and lstsq to cond^2 eps, cond = 20 here), and by
+    the QR itself for one whose scaled condition exceeds NORMAL_COND_MAX."""
+    from truthbench.update.finite_difference import (
+        NORMAL_COND_MAX,
+        _stack,
+        _triangular_factor,
+    )
+
+    rng = np.random.default_rng(7)
+    Sw = rng.normal(size=(5000, 3)) + 1j * rng.normal(size=(5000, 3))
+    Sw[:, 1] = 1e6 * (Sw[:, 1] + 0.9 * Sw[:, 0])  # very different column norms
+    r = rng.normal(size=5000) + 1j * rng.normal(size=5000)
+    A, b = _stack(Sw), _stack(r)
+    R, Qb = _triangular_factor(Sw, r)
+    scaled = A / np.linalg.norm(A, axis=0)
+    cond = np.linalg.cond(scaled)
+    assert cond < 20
+    tol = 10 * cond**2 * np.finfo(float).eps
+    np.testing.assert_allclose(R.T @ R, A.T @ A, rtol=tol,
+                               atol=tol * np.abs(A.T @ A).max())
+    # the solutions in the scaled variables (each column's norm times its entry)
+    norms = np.linalg.norm(A, axis=0)
+    x_ref = np.linalg.lstsq(A, b, rcond=None)[0] * norms
+    x = np.linalg.solve(R, Qb) * norms
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=tol * np.abs(x_ref).max())
+    # nearly collinear columns: the Householder QR, exactly as numpy's
+    Sw[:, 2] = Sw[:, 0] + 1e-5 * Sw[:, 2]
+    A = _stack(Sw)
+    assert np.linalg.cond(A / np.linalg.norm(A, axis=0)) > NORMAL_COND_MAX
+    R, Qb = _triangular_factor(Sw, r)
+    Q, R_ref = np.linalg.qr(A)
+    np.testing.assert_array_equal(R, R_ref)
+    np.testing.assert_array_equal(Qb, Q.T @ b)
