@@ -219,3 +219,75 @@ def test_sensitivity_updates_the_hub_damper_from_identified_damping():
         pytest.approx(0, abs=0.02)
     assert got["E_pa"] / trial.truth["E_pa"] - 1 == pytest.approx(0, abs=1e-3)
     assert trial.update.row_counts["damping"] > 0
+
+
+@pytest.mark.slow
+def test_modal_update_starts_the_frf_update_at_the_same_minimum():
+    """With both updaters the modal one runs first and the FRF update starts from its
+    values where they fit the FRFs better than the nominal model (history[1]); either
+    way it ends at the minimum the FRF update alone finds (both stop on steps below the
+    tolerance 1e-7, converging superlinearly: 1e-6 apart at most). Results are reported
+    in the declared order."""
+    import warnings
+
+    from .conftest import full_dict
+
+    d = full_dict()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the sensitivity method on noisy 4 s records
+        both = run_campaign(parse_campaign(d), trials=2)
+    d["update"]["method"] = "finite_difference"
+    alone = run_campaign(parse_campaign(d), trials=2)
+    started = 0
+    for a, b in zip(both.trials, alone.trials, strict=True):
+        assert list(a.comparison) == ["finite_difference", "sensitivity"]
+        assert list(a.accuracy) == ["initial", "finite_difference", "sensitivity", "updated"]
+        fd, sens = a.comparison["finite_difference"], a.comparison["sensitivity"]
+        assert fd is a.update and fd.converged
+        if np.array_equal(fd.history[1], sens.values):
+            assert fd.cost_history[1] < fd.cost_history[0]
+            started += 1
+        else:  # the modal fit was worse than nominal: the same path as alone
+            np.testing.assert_array_equal(fd.history, b.update.history)
+        np.testing.assert_allclose(fd.values, b.update.values, rtol=1e-6)
+    assert started >= 1
+
+
+def test_plant_modes_at_sensors_remembers_by_content(small_dict):
+    """The remembered modes are those of the model built from the same content (the same
+    arrays, bit for bit); the same content from another object is the same entry, and a
+    changed parameter or structural addition is another."""
+    from dataclasses import replace
+
+    from truthbench.campaign.metrics import (
+        displacement_sensors,
+        modes_at_sensors,
+        plant_modes_at_sensors,
+    )
+    from truthbench.campaign.plan import CampaignPlan
+    from truthbench.campaign.truth import build_hardware
+
+    spec = parse_campaign(small_dict)
+    plan = CampaignPlan.compile(spec)
+    sensors = displacement_sensors(plan.tests[0].sensors)
+    setup = build_hardware(plan, plan.tests[0], 0, spec.campaign.seed)
+    band = (10.0, 400.0)
+    got = plant_modes_at_sensors(setup.plant, dict(setup.parameters), sensors, band, 30,
+                                 setup.additions)
+    direct = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors,
+                                                setup.additions), sensors, band, 30)
+    for name in ("freq_hz", "damping_ratio", "shapes"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(direct, name))
+    again = plant_modes_at_sensors(replace(setup.plant), dict(setup.parameters),
+                                   list(sensors), band, 30, replace(setup.additions))
+    assert again is got
+    stiffer = {**setup.parameters, "E_pa": setup.parameters["E_pa"] * 1.01}
+    other = plant_modes_at_sensors(setup.plant, stiffer, sensors, band, 30, setup.additions)
+    direct = modes_at_sensors(setup.plant.build(stiffer, [], sensors, setup.additions),
+                              sensors, band, 30)
+    np.testing.assert_array_equal(other.freq_hz, direct.freq_hz)
+    assert np.all(other.freq_hz > got.freq_hz)
+    bare = plant_modes_at_sensors(setup.plant, setup.parameters, sensors, band, 30)
+    direct = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors), sensors,
+                              band, 30)
+    np.testing.assert_array_equal(bare.freq_hz, direct.freq_hz)

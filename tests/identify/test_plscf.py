@@ -317,3 +317,64 @@ def test_persistence_is_counted_from_a_modes_first_order():
             warnings.simplefilter("error")
             sel = select_poles(_diagram(tracks, orders))
         np.testing.assert_allclose(np.abs(sel.poles) / (2 * np.pi), [10.0, 30.0], rtol=1e-9)
+
+
+# ---- the normal equations, against their definitions --------------------------------
+def test_lag_sums_match_the_complex_exponential_sums(synthetic):
+    """R, S, T of the pLSCF normal equations (from the cosines and sines of the lags)
+    against their definitions as complex exponential sums over the lines. Every entry is
+    a sum of nf terms of size up to max|X|, each with the rounding of its power
+    exp(j k theta) (below (p + 1) eps, by repeated multiplication) and of the sum (nf
+    eps): below (p + 2) nf eps max|X| per entry."""
+    from truthbench.identify.plscf import _lag_sums
+
+    syn = synthetic(n_in=2)
+    f, H = syn.freq_hz, syn.frf
+    p = 12
+    theta = 2 * np.pi * f / (2 * f[-1])
+    R, S, T = _lag_sums(theta, H, p)
+    nf, no, ni = H.shape
+    k = np.arange(p + 1)
+    W = np.exp(1j * np.outer(theta, k))  # (nf, p + 1): Omega_f^k
+    # R_rs = Re sum_f W_fr conj(W_fs); S_o[r, (s, i)] = -Re sum_f W_fr conj(W_fs) H_foi;
+    # T[(r, i), (s, j)] = Re sum_f W_fr conj(W_fs) sum_o conj(H_foi) H_foj
+    WW = W[:, :, None] * W.conj()[:, None, :]  # (nf, r, s)
+    R_ref = WW.sum(axis=0).real
+    S_ref = -np.einsum("frs,foi->orsi", WW, H).real.reshape(no, p + 1, (p + 1) * ni)
+    P = np.einsum("foi,foj->fij", H.conj(), H)
+    T_ref = np.einsum("frs,fij->risj", WW, P).real.reshape((p + 1) * ni, (p + 1) * ni)
+    bound = (p + 2) * nf * np.finfo(float).eps
+    np.testing.assert_allclose(R, R_ref, rtol=0, atol=bound)
+    np.testing.assert_allclose(S, S_ref, rtol=0, atol=bound * np.abs(H).max())
+    np.testing.assert_allclose(T, T_ref, rtol=0, atol=bound * np.abs(P).max())
+
+
+@pytest.mark.parametrize("n_in", [1, 2])
+def test_reduced_normal_matrix_of_every_order_matches_a_direct_solve(synthetic, n_in):
+    """M_n = T_n - sum_o S_on^T R_n^-1 S_on from one Cholesky factor of R (leading
+    blocks) against numpy's solve with each R_n: equal within the rounding of the
+    products, about cond(R_n) eps |S|^2 / |R| per entry."""
+    from truthbench.identify.plscf import _lag_sums, _reduced_normal
+
+    syn = synthetic(n_in=n_in)
+    f, H = syn.freq_hz, syn.frf
+    H = H / np.sqrt(np.mean(np.abs(H) ** 2, axis=(0, 2)))[None, :, None]
+    p = 20
+    R, S, T = _lag_sums(2 * np.pi * f / (2 * f[-1]), H, p)
+    reduced = _reduced_normal(R, S, T, n_in)
+    eps = np.finfo(float).eps
+    for n in (1, 5, 13, 20):
+        m = (n + 1) * n_in
+        Rn, Sn = R[: n + 1, : n + 1], S[:, : n + 1, :m]
+        ref = T[:m, :m] - sum(So.T @ np.linalg.solve(Rn, So) for So in Sn)
+        scale = np.linalg.cond(Rn) * eps * max(np.abs(Sn).max() ** 2 / np.abs(Rn).max(), 1)
+        np.testing.assert_allclose(reduced(n), ref, rtol=0, atol=100 * (n + 1) * scale)
+
+
+def test_single_input_participation_is_one(synthetic):
+    """One input: the participation vectors are the unit scalar 1 (the eigensolver's
+    phase was arbitrary), and the poles those of the eigenvalues alone."""
+    syn = synthetic(n_in=1)
+    d = plscf_stabilization(syn.freq_hz, syn.frf, 20)
+    for L in d.participation:
+        np.testing.assert_array_equal(L, np.ones_like(L))

@@ -125,3 +125,129 @@ def test_additive_parameter_starts_at_zero():
     with pytest.raises(ValueError, match="additive scales must be positive"):
         finite_difference_update(predict, data, {"gain": 1.0, "delay_s": 0.0},
                                  ["gain", "delay_s"], n_pairs=3, additive={"delay_s": -1})
+
+
+# ---- the structured secant (quasi-Newton) step and the start ---------------------------
+def _exponential_problem(y3):
+    """Dennis and Schnabel's large-residual example (Numerical Methods for Unconstrained
+    Optimization, Example 10.2.4): ``exp(k t)`` fitted to ``y = (2, 4, y3)`` at
+    ``t = (1, 2, 3)``; the residual at the minimum grows as ``y3`` leaves 8, and with it
+    the Hessian term that Gauss-Newton leaves out. Returns predict (with its analytic
+    Jacobian), the data and scipy's minimum of ``log k`` (the update's variable)."""
+    from scipy.optimize import least_squares
+
+    t = np.array([1.0, 2.0, 3.0])
+    data = np.array([2.0, 4.0, y3])
+
+    def predict(th):
+        return np.exp(t * th["k"])
+
+    predict.jacobian = lambda th, names, additive=None: (
+        t * th["k"] * np.exp(t * th["k"]))[:, None]
+    ref = least_squares(lambda x: data - np.exp(t * 0.7 * np.exp(x[0])), [0.0],
+                        jac=lambda x: -(t * 0.7 * np.exp(x[0])
+                                        * np.exp(t * 0.7 * np.exp(x[0])))[:, None],
+                        method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    return predict, data, float(ref.x[0])
+
+
+def test_secant_curvature_satisfies_the_secant_equation():
+    """The updated curvature term T is symmetric and maps the step to
+    ``y# = (A_old - A)^T b`` (Dennis-Gay-Welsch), whatever T was; a step along which the
+    gradient does not grow (s^T y <= 0) drops it."""
+    from truthbench.update.finite_difference import secant_curvature
+
+    rng = np.random.default_rng(3)
+    A_old, A = rng.normal(size=(40, 3)), rng.normal(size=(40, 3))
+    b_old, b = rng.normal(size=40), rng.normal(size=40)
+    T0 = rng.normal(size=(3, 3))
+    T0 = T0 + T0.T
+    g_old, g = A_old.T @ b_old, A.T @ b
+    y = g_old - g
+    step = y + 0.1 * rng.normal(size=3)  # s^T y > 0
+    assert step @ y > 0
+    T = secant_curvature(T0, step, g_old, g, A_old.T @ b)
+    # O(1) numbers through a few dozen operations: rounding about 1e-15
+    np.testing.assert_allclose(T, T.T, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(T @ step, (A_old - A).T @ b, rtol=1e-12, atol=1e-12)
+    assert not np.any(secant_curvature(T0, -y, g_old, g, A_old.T @ b))
+
+
+def test_large_residual_converges_to_scipy_minimum_faster_than_gauss_newton(monkeypatch):
+    """y3 = 0: Gauss-Newton converges linearly at |1 - H / (A^T A)| = 0.27 at the
+    minimum; with the secant's curvature the same minimum (scipy's least_squares) is
+    reached in fewer iterations. The cost comparisons resolve log k to about
+    sqrt(2 eps J / H) = 4e-8 (J = 10.2 the cost at the minimum, H = 2.5 its second
+    derivative in log k), far inside the 1e-6 asserted."""
+    import truthbench.update.finite_difference as fd
+
+    predict, data, x_ref = _exponential_problem(0.0)
+    kw = dict(n_pairs=None, tolerance=1e-10, max_iterations=100)
+    qn = finite_difference_update(predict, data, {"k": 0.7}, ["k"], **kw)
+    monkeypatch.setattr(fd, "secant_curvature", lambda T, *args: np.zeros_like(T))
+    gn = finite_difference_update(predict, data, {"k": 0.7}, ["k"], **kw)
+    for res in (qn, gn):
+        assert res.converged
+        assert np.log(res.values[0] / 0.7) == pytest.approx(x_ref, abs=1e-6)
+    # at 0.27 per iteration, from 0.1 to 1e-10 takes log(1e-9) / log(0.27) = 16
+    # iterations (the first steps, from 1.4 away, are cut to the 0.5 trust region)
+    assert gn.n_iterations >= int(np.log(1e-9) / np.log(0.271))
+    assert qn.n_iterations <= gn.n_iterations - 4
+
+
+def test_start_is_used_when_it_fits_better():
+    """``start`` at the minimum: history[0] stays theta0 (``initial``), history[1] is the
+    start and the iteration ends there; a start that fits worse than theta0 is not
+    used; a non-positive start of a relative parameter is refused."""
+    predict, data, x_ref = _exponential_problem(3.0)
+    k_min = 0.7 * np.exp(x_ref)
+    res = finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None,
+                                   start={"k": k_min})
+    assert res.converged and res.initial[0] == 0.7 and res.history[1, 0] == k_min
+    assert res.n_iterations <= 3
+    assert res.values[0] == pytest.approx(k_min, rel=1e-6)
+    plain = finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None)
+    worse = finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None,
+                                     start={"k": 5.0})
+    np.testing.assert_array_equal(worse.history, plain.history)
+    with pytest.raises(ValueError, match="start values"):
+        finite_difference_update(predict, data, {"k": 0.7}, ["k"], n_pairs=None,
+                                 start={"k": -1.0})
+
+
+def test_triangular_factor_from_the_normal_equations_matches_householder_qr():
+    """R and Q^T b of the stacked real and imaginary parts: from the normal equations
+    for a well-conditioned matrix (R^T R = A^T A and the least-squares solution
+    R^-1 Q^T b agree with numpy's QR and lstsq to cond^2 eps, cond = 20 here), and by
+    the QR itself for one whose scaled condition exceeds NORMAL_COND_MAX."""
+    from truthbench.update.finite_difference import (
+        NORMAL_COND_MAX,
+        _stack,
+        _triangular_factor,
+    )
+
+    rng = np.random.default_rng(7)
+    Sw = rng.normal(size=(5000, 3)) + 1j * rng.normal(size=(5000, 3))
+    Sw[:, 1] = 1e6 * (Sw[:, 1] + 0.9 * Sw[:, 0])  # very different column norms
+    r = rng.normal(size=5000) + 1j * rng.normal(size=5000)
+    A, b = _stack(Sw), _stack(r)
+    R, Qb = _triangular_factor(Sw, r)
+    scaled = A / np.linalg.norm(A, axis=0)
+    cond = np.linalg.cond(scaled)
+    assert cond < 20
+    tol = 10 * cond**2 * np.finfo(float).eps
+    np.testing.assert_allclose(R.T @ R, A.T @ A, rtol=tol,
+                               atol=tol * np.abs(A.T @ A).max())
+    # the solutions in the scaled variables (each column's norm times its entry)
+    norms = np.linalg.norm(A, axis=0)
+    x_ref = np.linalg.lstsq(A, b, rcond=None)[0] * norms
+    x = np.linalg.solve(R, Qb) * norms
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=tol * np.abs(x_ref).max())
+    # nearly collinear columns: the Householder QR, exactly as numpy's
+    Sw[:, 2] = Sw[:, 0] + 1e-5 * Sw[:, 2]
+    A = _stack(Sw)
+    assert np.linalg.cond(A / np.linalg.norm(A, axis=0)) > NORMAL_COND_MAX
+    R, Qb = _triangular_factor(Sw, r)
+    Q, R_ref = np.linalg.qr(A)
+    np.testing.assert_array_equal(R, R_ref)
+    np.testing.assert_array_equal(Qb, Q.T @ b)

@@ -187,3 +187,26 @@ def test_cases_it_does_not_cover_fall_back_to_finite_differences():
                           "parameters": {"stiffness_loss": 0.1}}, "effects[0]", "test")
     pred = FRFPredictor(plant, {}, tests, [EffectTerm("joint", joint)])
     assert pred.jacobian(pred.theta0, ["joint.stiffness_loss"]) is None
+
+
+def test_predictors_of_one_model_share_the_macroelements_taken_at_its_nominal_values():
+    """Two predictors of the same plant, nominal values and channels (a campaign's trials)
+    take the macroelements once, at the nominal values, and move them to any theta: the
+    second one's Jacobian is the first one's, bit for bit, and matches the differences;
+    another nominal value is another model."""
+    plant = make_plant("free_free_beam", n_elements=6)
+    tests = [PredictedTest("a", np.linspace(5.0, 300.0, 80), (Actuator("end_a", "z"),),
+                           (Sensor("end_b", "z"),))]
+    names = ["E_pa", "rho_kg_m3"]
+    nominal = {"modal_damping_ratio": 0.0123}
+    first = FRFPredictor(plant, nominal, tests)
+    second = FRFPredictor(plant, nominal, tests)
+    theta = {**first.theta0, "E_pa": first.theta0["E_pa"] * 1.02}
+    S1 = first.jacobian(theta, names)
+    S2 = second.jacobian(theta, names)
+    np.testing.assert_array_equal(S1, S2)
+    assert second._macro_cache[tuple(names)]._ref is first._macro_cache[tuple(names)]._ref
+    _check(second, theta, names)
+    other = FRFPredictor(plant, {**nominal, "rho_kg_m3": 2650.0}, tests)
+    other.jacobian({**other.theta0, "E_pa": theta["E_pa"]}, names)
+    assert other._macro_cache[tuple(names)]._ref is not first._macro_cache[tuple(names)]._ref

@@ -54,6 +54,39 @@ def modes_at_sensors(model, sensors, band_hz, n_modes):
                            output_labels=tuple(s.label for s in sensors))
 
 
+_PLANT_MODES: dict = {}
+_PLANT_MODES_SIZE = 16
+
+
+def plant_modes_at_sensors(plant, params, sensors, band_hz, n_modes, additions=None):
+    """:func:`modes_at_sensors` of ``plant.build(params, [], sensors, additions)``,
+    remembered by content (the plant's fields, the parameter values, sensors, band,
+    mode count and additions) for the last few of this process: a trial reads the
+    nominal model at the same sensors for every test's uncertainty pairing, and the first
+    test's truth for every updater's accuracy. The same content gives the same object,
+    whatever ran before."""
+    try:
+        key = (repr(plant), tuple(sorted((k, float(v)) for k, v in params.items())),
+               tuple(sensors), (float(band_hz[0]), float(band_hz[1])), int(n_modes),
+               None if additions is None else (
+                   additions.links, additions.element_stiffness_scale, additions.points,
+                   None if additions.sag_angles_rad is None
+                   else np.asarray(additions.sag_angles_rad, float).tobytes()))
+        hash(key)
+    except (TypeError, ValueError):
+        key = None
+    out = None if key is None else _PLANT_MODES.pop(key, None)
+    if out is None:
+        model = (plant.build(params, [], sensors) if additions is None
+                 else plant.build(params, [], sensors, additions))
+        out = modes_at_sensors(model, sensors, band_hz, n_modes)
+    if key is not None:
+        _PLANT_MODES[key] = out  # most recently used last
+        while len(_PLANT_MODES) > _PLANT_MODES_SIZE:
+            _PLANT_MODES.pop(next(iter(_PLANT_MODES)))
+    return out
+
+
 def displacement_sensors(sensors) -> list[Sensor]:
     """The campaign's sensors read as displacements (strain gauges stay strain)."""
     return [Sensor(s.station, s.direction, "strain" if s.quantity == "strain"
@@ -76,10 +109,9 @@ def modal_accuracy(plan, setup, params: dict, *, n_modes: int = 30) -> dict:
 
     sensors = displacement_sensors(plan.spec.sensors)
     band = plan.analysis_band_hz
-    truth = setup.plant.build(setup.parameters, [], sensors, setup.additions)
-    model = plan.plant.build(params, [], sensors)
-    mt = modes_at_sensors(truth, sensors, band, n_modes)
-    mm = modes_at_sensors(model, sensors, band, n_modes)
+    mt = plant_modes_at_sensors(setup.plant, setup.parameters, sensors, band, n_modes,
+                                setup.additions)
+    mm = plant_modes_at_sensors(plan.plant, params, sensors, band, n_modes)
     pairing = pair_modes(mt, mm, mac_min=0.6)
     pairs = np.asarray(pairing.pairs, dtype=int).reshape(-1, 2)
     ti, mi = pairs[:, 0], pairs[:, 1]

@@ -193,6 +193,9 @@ class _MemoBuild:
 
     def __init__(self, plant, size: int = 4):
         self.plant, self.size, self._cache = plant, size, {}
+        # what its models depend on besides theta: macroelements taken at a theta serve
+        # every trial (truthbench.update.jacobian.MacroelementCache)
+        self.content_key = ("plant.build", repr(plant))
 
     def __call__(self, theta):
         try:
@@ -206,13 +209,14 @@ class _MemoBuild:
         return self._cache[key]
 
 
-def update_problem(plan, records, updater, *, full: FRFPredictor | None = None
-                   ) -> tuple[UpdateProblem, list]:
+def update_problem(plan, records, updater, *, full: FRFPredictor | None = None,
+                   start: dict | None = None) -> tuple[UpdateProblem, list]:
     """The :class:`~truthbench.update.UpdateProblem` of a trial's data with the inputs
     ``updater`` needs (FRFs and a predictor; identified modes and a model builder), and
     the lines used per test (:meth:`~truthbench.campaign.plan.TestPlan.update_lines`).
     ``full``: the trial's predictor at all lines, whose cache of models the update's
-    predictor shares."""
+    predictor shares; ``start``: values an FRF updater may start from (a modal
+    update's result)."""
     masks = [t.update_lines(rec.freq_hz) for t, rec in zip(plan.tests, records, strict=True)]
     names = plan.update_names
     if full is not None:
@@ -234,15 +238,16 @@ def update_problem(plan, records, updater, *, full: FRFPredictor | None = None
         n_pairs=sum(rec.H.shape[1] * rec.H.shape[2] for rec in records) if frf else None,
         additive=pred.additive_scales(names) if frf else None,
         build_model=build,
-        measured=measured_modes(plan, records, nominal, build=build) if modes else None)
+        measured=measured_modes(plan, records, nominal, build=build) if modes else None,
+        start=start if frf else None)
     return problem, masks
 
 
 def update_trial(plan, records, method: str | None = None, *,
-                 full: FRFPredictor | None = None):
+                 full: FRFPredictor | None = None, start: dict | None = None):
     """Update the nominal model against the trial's data with one registered updater
     configured from the campaign's ``[update]`` table (default: the primary method);
-    ``full`` as in :func:`update_problem`.
+    ``full`` and ``start`` as in :func:`update_problem`.
 
     Returns
     -------
@@ -251,7 +256,7 @@ def update_trial(plan, records, method: str | None = None, *,
         The lines of each test used.
     """
     updater = make_updater(method or plan.methods[0], plan.spec.update.model_dump())
-    problem, masks = update_problem(plan, records, updater, full=full)
+    problem, masks = update_problem(plan, records, updater, full=full, start=start)
     return updater.update(problem), masks
 
 
@@ -271,6 +276,21 @@ class _Stopwatch:
 
     def __exit__(self, *exc):
         self.seconds[self._stage] += time.perf_counter() - self._t0
+
+
+def _needs(plan, method: str) -> frozenset:
+    """What the updater ``method`` needs (``"frf"``, ``"modes"``)."""
+    return make_updater(method, plan.spec.update.model_dump()).needs
+
+
+def _modal_first(plan, methods) -> list:
+    """``methods`` in the order they run: those that fit identified modes first, so that
+    the first one's values start the FRF updaters (two-step updating: the modal fit puts
+    the model's resonances within their bandwidth of the data's, where the FRF cost is
+    a valley Gauss-Newton descends in a few steps; from the nominal model each step
+    moves a resonance by about its bandwidth). Results do not depend on the order
+    otherwise."""
+    return sorted(methods, key=lambda m: _needs(plan, m) != {"modes"})
 
 
 def _keeps_time_histories(plan, trial: int) -> bool:
@@ -345,22 +365,29 @@ def _run_trial(plan, trial: int, seed: int) -> TrialResult:
             full = predictor(plan, [rec.freq_hz[rec.freq_hz > 0] for rec in records])
             h_initial = full.predict(nominal)
         comparison = {}
-        for method in methods:
+        start = None  # a modal update's values, where the FRF updaters start
+        for method in _modal_first(plan, methods):
             try:
                 with watch("update"):
-                    res, masks = update_trial(plan, records, method, full=full)
+                    res, masks = update_trial(plan, records, method, full=full,
+                                              start=start)
             except Exception as exc:  # one method failing does not lose the others
                 if method == methods[0]:
                     raise
                 comparison[method] = f"{type(exc).__name__}: {exc}"
                 continue
             comparison[method] = res
+            if start is None and _needs(plan, method) == {"modes"}:
+                start = res.as_dict()
             with watch("score"):
                 accuracy[method] = modal_accuracy(plan, first,
                                                   plant_parameters({**nominal,
                                                                     **res.as_dict()}))
             if method == methods[0]:
                 result = res
+        # reported in the declared order, whatever order they ran in
+        comparison = {m: comparison[m] for m in methods if m in comparison}
+        accuracy = {k: accuracy[k] for k in ("initial", *methods) if k in accuracy}
         updated = {**nominal, **result.as_dict()}
         accuracy["updated"] = accuracy[methods[0]]
         with watch("score"):

@@ -67,12 +67,12 @@ def model_values(plan, params: dict, mode_index) -> np.ndarray:
     """``[f..., zeta...]`` of the campaign's model (``plan``, a
     :class:`~truthbench.campaign.plan.CampaignPlan`) at ``params`` for the initial
     model's modes ``mode_index`` (paired by MAC at the first test's sensors)."""
-    from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
+    from truthbench.campaign.metrics import displacement_sensors, plant_modes_at_sensors
 
     sensors = displacement_sensors(plan.tests[0].sensors)
     band = plan.uncertainty_band_hz
-    ref = modes_at_sensors(plan.plant.build(plan.nominal, [], sensors), sensors, band, 40)
-    other = modes_at_sensors(plan.plant.build(params, [], sensors), sensors, band, 40)
+    ref = plant_modes_at_sensors(plan.plant, plan.nominal, sensors, band, 40)
+    other = plant_modes_at_sensors(plan.plant, params, sensors, band, 40)
     k = _pair(ref, other)[mode_index]
     f = np.where(k >= 0, other.freq_hz[k], np.nan)
     z = np.where(k >= 0, other.damping_ratio[k], np.nan)
@@ -104,7 +104,7 @@ def uncertainty_stage(plan, records, hardware):
     hardware : sequence of Hardware
         The truth of each test (:func:`~truthbench.campaign.truth.build_hardware`).
     """
-    from truthbench.campaign.metrics import displacement_sensors, modes_at_sensors
+    from truthbench.campaign.metrics import displacement_sensors, plant_modes_at_sensors
     from truthbench.identify import ModalParameters
     from truthbench.uncertainty import uncertainty_model
 
@@ -113,16 +113,15 @@ def uncertainty_stage(plan, records, hardware):
     ref = None
     for test, rec, setup in zip(plan.tests, records, hardware, strict=True):
         sensors = displacement_sensors(test.sensors)
-        model = modes_at_sensors(plan.plant.build(plan.nominal, [], sensors), sensors, band,
-                                 40)
+        model = plant_modes_at_sensors(plan.plant, plan.nominal, sensors, band, 40)
         ref = model if ref is None else ref
         ident = rec.modes
         if ident is None:
             return None
         ident = ModalParameters(ident.freq_hz, ident.damping_ratio, ident.shapes)
         k = _pair(model, ident)
-        truth = modes_at_sensors(setup.plant.build(setup.parameters, [], sensors,
-                                                   setup.additions), sensors, band, 60)
+        truth = plant_modes_at_sensors(setup.plant, setup.parameters, sensors, band, 60,
+                                       setup.additions)
         kt = _pair(model, truth)
         f_t.append(np.where(k >= 0, ident.freq_hz[k], np.nan))
         z_t.append(np.where(k >= 0, ident.damping_ratio[k], np.nan))

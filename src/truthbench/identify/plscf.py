@@ -56,6 +56,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+import scipy.linalg as sla
 
 from truthbench.errors import IdentifiabilityError
 from truthbench.identify._common import check_freq_frf, frf_power, readonly, select_band
@@ -378,12 +379,27 @@ class PLSCFResult(Presentable):
 def _lag_sums(theta: np.ndarray, H: np.ndarray, p: int):
     """Block-Toeplitz normal matrices R, S (per output) and sum_o T_o at order ``p``."""
     nf, no, ni = H.shape
-    lags = np.arange(-p, p + 1)
-    E = np.exp(1j * np.outer(lags, theta))  # (2p+1, nf): exp(j theta m), m = r - s
-    r_lag = E.sum(axis=1).real
-    s_lag = -(E @ H.reshape(nf, no * ni)).real.reshape(2 * p + 1, no, ni)
+    # the real parts of sum_f exp(j k theta_f) X_f for lags k = -p..p from the cosines
+    # and sines of k = 0..p (even and odd in k): real products only. The powers
+    # exp(j k theta) by repeated multiplication (relative rounding below (k + 1) eps)
+    w = np.exp(1j * theta)
+    powers = np.empty((p + 1, nf), complex)
+    powers[0] = 1.0
+    for k in range(1, p + 1):
+        np.multiply(powers[k - 1], w, out=powers[k])
+    c, s = powers.real, powers.imag  # (p + 1, nf)
+
+    def lagged(X):
+        """``Re sum_f exp(j k theta_f) X_f`` for k = -p..p, shape (2p + 1, ...)."""
+        flat = X.reshape(nf, -1)
+        cr, si = c @ flat.real, s @ flat.imag
+        out = np.concatenate([(cr + si)[:0:-1], cr - si])
+        return out.reshape((2 * p + 1,) + X.shape[1:])
+
+    r_lag = np.concatenate([c.sum(axis=1)[:0:-1], c.sum(axis=1)])
+    s_lag = -lagged(H)
     P = np.einsum("koi,koj->kij", H.conj(), H)
-    t_lag = (E @ P.reshape(nf, ni * ni)).real.reshape(2 * p + 1, ni, ni)
+    t_lag = lagged(P)
     idx = np.arange(p + 1)
     mm = idx[:, None] - idx[None, :] + p
     R = r_lag[mm]
@@ -404,26 +420,60 @@ def _solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(A, B, rcond=None)[0]
 
 
-def _poles_at_order(R, S, T, n: int, ni: int, dt: float):
-    """Poles (rad/s, Im > 0) and participation vectors of polynomial order ``n``."""
-    Rn = R[: n + 1, : n + 1]
-    Sn = S[:, : n + 1, : (n + 1) * ni]
-    Tn = T[: (n + 1) * ni, : (n + 1) * ni]
-    X = _solve(Rn, np.concatenate(list(Sn), axis=1)).reshape(n + 1, S.shape[0], -1)
-    M = Tn - np.einsum("oab,aoc->bc", Sn, X)
+def _reduced_normal(R: np.ndarray, S: np.ndarray, T: np.ndarray, ni: int):
+    """``n -> M_n = T_n - sum_o S_on^T R_n^-1 S_on``, the reduced normal matrix of order
+    ``n`` (``R_n``, ``S_on``, ``T_n`` the leading blocks of order ``n``).
+
+    With the Cholesky factor ``R = L L^T`` every leading block factors as
+    ``R_n = L_n L_n^T`` and, ``L`` being lower triangular, ``L_n^-1 S_on`` is the leading
+    block of ``Y_o = L^-1 S_o``: one triangular solve at the highest order serves every
+    order, ``M_n = T_n - sum_o Y_on^T Y_on``. Where ``R`` is not numerically positive
+    definite each order solves with its own ``R_n`` (LU, least squares if singular)."""
+    no = S.shape[0]
+    try:
+        chol = np.linalg.cholesky(R)
+    except np.linalg.LinAlgError:
+        chol = None
+    if chol is None:
+        def at(n: int) -> np.ndarray:
+            Rn = R[: n + 1, : n + 1]
+            Sn = S[:, : n + 1, : (n + 1) * ni]
+            X = _solve(Rn, np.concatenate(list(Sn), axis=1)).reshape(n + 1, no, -1)
+            return T[: (n + 1) * ni, : (n + 1) * ni] - np.einsum("oab,aoc->bc", Sn, X)
+        return at
+    Y = sla.solve_triangular(chol, np.concatenate(list(S), axis=1), lower=True,
+                             check_finite=False)
+    Y = Y.reshape(R.shape[0], no, -1)  # (p + 1, no, (p + 1) ni): row k of every Y_o
+
+    def at(n: int) -> np.ndarray:
+        m = (n + 1) * ni
+        Yn = Y[: n + 1, :, :m].reshape(-1, m)
+        return T[:m, :m] - Yn.T @ Yn
+    return at
+
+
+def _poles_at_order(M: np.ndarray, n: int, ni: int, dt: float):
+    """Poles (rad/s, Im > 0) and participation vectors of polynomial order ``n`` from the
+    reduced normal matrix ``M`` of that order (:func:`_reduced_normal`)."""
     k = n * ni
     alpha = -_solve(M[:k, :k], M[:k, k:])  # (n ni, ni): alpha_0 .. alpha_{n-1}
     C = np.zeros((k, k))
     if n > 1:
         C[:-ni, ni:] = np.eye(k - ni)
     C[-ni:, :] = -alpha.reshape(n, ni, ni).transpose(0, 2, 1).transpose(1, 0, 2).reshape(ni, k)
-    x, V = np.linalg.eig(C)
+    if ni == 1:  # a scalar participation of unit norm: 1 (the eigenvector's phase is
+        x = np.linalg.eigvals(C)  # arbitrary), and no eigenvectors to compute
+    else:
+        x, V = np.linalg.eig(C)
     with np.errstate(divide="ignore", invalid="ignore"):
         lam = -np.log(x.astype(complex)) / dt
     ok = np.isfinite(lam) & (lam.imag > 0)
     lam = lam[ok]
-    L = V[:ni, ok].T
-    L = L / np.maximum(np.linalg.norm(L, axis=1, keepdims=True), 1e-300)
+    if ni == 1:
+        L = np.ones((lam.size, 1), complex)
+    else:
+        L = V[:ni, ok].T
+        L = L / np.maximum(np.linalg.norm(L, axis=1, keepdims=True), 1e-300)
     order = np.argsort(lam.imag)
     return lam[order], L[order]
 
@@ -507,13 +557,14 @@ def plscf_stabilization(
     dt = 1.0 / (2.0 * f_max)
     theta = 2.0 * np.pi * f * dt
     R, S, T = _lag_sums(theta, H, max_order)
+    reduced = _reduced_normal(R, S, T, ni)
     band = (float(f[0]), f_max)
 
     orders = list(range(min_order, max_order + 1))
     poles, parts, s_f, s_d, s_v, phys = [], [], [], [], [], []
     prev = None
     for n in orders:
-        lam, L = _poles_at_order(R, S, T, n, ni, dt)
+        lam, L = _poles_at_order(reduced(n), n, ni, dt)
         fn, zn = modal_from_poles(lam)
         physical = (
             (lam.real < 0)

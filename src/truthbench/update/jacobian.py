@@ -85,6 +85,11 @@ DEGENERATE_RTOL = 1e-6
 """Relative eigenvalue gap below which two modes form a degenerate cluster (the value of
 :func:`truthbench.update.modal_sensitivity.eigen_sensitivities`)."""
 
+SHARED_SIZE = 8
+"""Macroelement sets (one model's, at one ``theta``) a process keeps for the caches whose
+builders declare a ``content_key`` (:class:`MacroelementCache`)."""
+
+_SHARED: dict = {}
 _EPS = np.finfo(float).eps
 _DENSE_CHECK = 2000  # DOFs up to which the affine check runs on dense copies
 
@@ -105,39 +110,69 @@ class MacroelementCache:
     build : callable
         ``build(theta)``: the model at ``theta`` (a
         :class:`~truthbench.model.StructuralModel`, or ``(M, K)``, ``(M, C, K)``:
-        :func:`~truthbench.update.macroelements.system_matrices`).
+        :func:`~truthbench.update.macroelements.system_matrices`). A builder with a
+        hashable ``content_key`` attribute (what its models depend on besides ``theta``)
+        shares the macroelements it takes at a ``theta`` with every cache of this
+        process whose builder has the same key (the last :data:`SHARED_SIZE`): a
+        campaign's trials update the same model from the same nominal values.
     names : sequence of str
         The plant parameters.
     warn : bool
         Warn of nonlinear parameters the first time the macroelements are taken
         (:func:`~truthbench.update.macroelements.macroelement_matrices`).
+    reference : mapping, optional
+        Parameter values to take the macroelements at first (e.g. the nominal model's,
+        which every trial of a campaign shares), then moved to the ``theta`` asked for;
+        default: the first ``theta`` asked for.
     """
 
-    def __init__(self, build, names: Sequence[str], *, warn: bool = False):
+    def __init__(self, build, names: Sequence[str], *, warn: bool = False,
+                 reference: Mapping[str, float] | None = None):
         self.build = build
         self.names = tuple(names)
         self.warn = bool(warn)
+        self.reference = None if reference is None else dict(reference)
         self._ref = None  # (theta values, (M, C, K, zeta), macroelements)
         self.relinearisations = 0
 
     def _take(self, theta: Mapping[str, float]):
-        try:
-            macros = macroelement_matrices(self.build, theta, self.names,
-                                           warn=self.warn and not self.relinearisations)
-        except ValueError as exc:  # a zero value, a changing DOF count
-            raise JacobianUnavailable(str(exc)) from None
-        model = system_matrices(self.build, theta)
-        base = (model.M, model.C, model.K, np.asarray(model.modal_damping_ratio, float))
-        vals = np.array([float(theta[n]) for n in self.names])
-        self._ref = (vals, base, macros)
+        key = self._shared_key(theta)
+        ref = None if key is None else _SHARED.pop(key, None)
+        if ref is None:
+            try:
+                macros = macroelement_matrices(self.build, theta, self.names,
+                                               warn=self.warn and not self.relinearisations)
+            except ValueError as exc:  # a zero value, a changing DOF count
+                raise JacobianUnavailable(str(exc)) from None
+            model = system_matrices(self.build, theta)
+            base = (model.M, model.C, model.K, np.asarray(model.modal_damping_ratio, float))
+            ref = (np.array([float(theta[n]) for n in self.names]), base, macros)
+        if key is not None:
+            _SHARED[key] = ref  # most recently used last
+            while len(_SHARED) > SHARED_SIZE:
+                _SHARED.pop(next(iter(_SHARED)))
+        self._ref = ref
         self.relinearisations += 1
-        return macros
+        return ref[2]
+
+    def _shared_key(self, theta: Mapping[str, float]):
+        content = getattr(self.build, "content_key", None)
+        if content is None:
+            return None
+        try:
+            key = (content, self.names, tuple(sorted((k, float(v)) for k, v in theta.items())))
+            hash(key)
+        except (TypeError, ValueError):
+            return None
+        return key
 
     def at(self, theta: Mapping[str, float], model) -> list[Macroelement]:
         """The macroelements at ``theta`` (``model``: the model built at ``theta``, with
         ``M``, ``C``, ``K`` and ``modal_damping_ratio``)."""
         if self._ref is None:
-            return self._take(theta)
+            if self.reference is None:
+                return self._take(theta)
+            self._take({**theta, **self.reference})
         vals0, base, macros = self._ref
         vals = np.array([float(theta[n]) for n in self.names])
         if np.array_equal(vals, vals0):

@@ -381,7 +381,7 @@ class FRFPredictor:
         if cache is None and plant:
             from truthbench.update.jacobian import MacroelementCache
 
-            cache = MacroelementCache(lambda th: self.hardware(th).model, plant)
+            cache = MacroelementCache(_ModelAt(self), plant, reference=self.nominal)
             self._macro_cache.clear()
             self._macro_cache[plant] = cache
         try:
@@ -410,6 +410,24 @@ class FRFPredictor:
                        ) -> np.ndarray:
         """:meth:`predict` of every test, raveled and concatenated (complex, 1-D)."""
         return np.concatenate([h.ravel() for h in self.predict(theta, estimator=estimator)])
+
+
+class _ModelAt:
+    """``predictor.hardware(theta).model``, with a ``content_key`` (what the model depends
+    on besides ``theta``: the plant, the nominal values, the channels) when the predictor
+    has no effect terms, so that macroelements taken at one ``theta`` serve every
+    predictor of the same model in the process
+    (:class:`~truthbench.update.jacobian.MacroelementCache`)."""
+
+    def __init__(self, predictor: FRFPredictor):
+        self.predictor = predictor
+        p = predictor
+        self.content_key = None if p.effects else (
+            "FRFPredictor", repr(p.plant), tuple(sorted(p.nominal.items())),
+            p._actuators, p._sensors, p.reduced, p.mode_tolerance)
+
+    def __call__(self, theta: Mapping[str, float]):
+        return self.predictor.hardware(theta).model
 
 
 @dataclass(frozen=True)

@@ -76,6 +76,11 @@ class UpdateProblem:
         (e.g. ``plant.build``) or ``(M, C, K)``: the model with its damping.
         Sensitivity localization uses it in place of ``build_mk`` when given; it is
         needed to update damping parameters from measured damping ratios.
+    start : mapping, optional
+        Values of (some of) ``names`` that the FRF updater starts from when they fit
+        better than ``theta0`` (e.g. a modal update's result; see
+        :func:`~truthbench.update.finite_difference_update`); ``theta0`` stays the
+        reference the result's changes are counted from.
     """
 
     names: tuple[str, ...]
@@ -88,6 +93,7 @@ class UpdateProblem:
     build_mk: BuildMK | None = None
     measured: tuple[MeasuredModes, ...] | None = None
     build_model: BuildSystem | None = None
+    start: Mapping[str, float] | None = None
 
     def __post_init__(self):
         names = (self.names,) if isinstance(self.names, str) else tuple(self.names)
@@ -107,6 +113,9 @@ class UpdateProblem:
             check_number("n_pairs", self.n_pairs, low=1, integer=True, where="UpdateProblem")
         if self.additive is not None:
             object.__setattr__(self, "additive", MappingProxyType(dict(self.additive)))
+        if self.start is not None:
+            object.__setattr__(self, "start", MappingProxyType(
+                {k: float(v) for k, v in self.start.items()}))
         if self.measured is not None:
             meas = (self.measured,) if isinstance(self.measured, MeasuredModes) \
                 else tuple(self.measured)
