@@ -77,7 +77,8 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
                      f"lines, and holds fewer independent values than it has lines)")
             line += (f"\n- **or {a.effect}** at {where(a.options, x_m=a.x_m)} ({alt}): "
                      f"delta BIC {sig(a.delta_bic)}, within the margin of it{grown}: these data "
-                     f"cannot tell the two apart")
+                     f"cannot tell {'the two' if len(f.alternatives) == 1 else 'them'} "
+                     f"apart")
         out.append(line)
     if diag.found:
         if holds:
@@ -92,8 +93,8 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
     if any(f.alternatives for f in diag.found):
         out += ["", "### The measurement that would settle it", ""]
         out += [f"- {m.summary()}" for m in diag.measurements]
-        settled = {m.between[0] for m in diag.measurements}
-        out += [f"- {f.effect} or {', '.join(a.effect for a in f.alternatives)}: no "
+        settled = {m.between[0] for m in diag.measurements}  # (found, runner-up) pairs
+        out += [f"- {' or '.join([f.effect, *(a.effect for a in f.alternatives)])}: no "
                 f"sensor or excitation point of this structure separates them (they act on "
                 f"every channel alike); a calibration of the measurement chain would"
                 for f in diag.found if f.alternatives and f.label not in settled]
