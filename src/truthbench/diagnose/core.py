@@ -338,6 +338,11 @@ def _refined_candidate(c: Candidate, renamed: Mapping[str, str], plant
                    node=None if c.node is None else c.node * 2), {}
 
 
+def _relabelled(by_label: Mapping[str, object], renamed: Mapping[str, str]) -> dict:
+    """``by_label`` with its keys renamed (labels not in ``renamed`` kept)."""
+    return {renamed.get(k, k): v for k, v in by_label.items()}
+
+
 def _refined_theta(theta: Mapping[str, float], accepted: Sequence[Candidate],
                    refined: Sequence[Candidate]) -> dict:
     """Parameter values with the candidates' keys renamed for the refined mesh
@@ -671,8 +676,8 @@ class _Diagnosis(_Placement):
                                f"{moved.candidate.label} explains as much"))
                     renamed = {twin.label: moved.candidate.label}
                     accepted = [moved.candidate if a is twin else a for a in accepted]
-                    self._evidence = {renamed.get(k, k): v for k, v in self._evidence.items()}
-                    alternatives = {renamed.get(k, k): v for k, v in alternatives.items()}
+                    self._evidence = _relabelled(self._evidence, renamed)
+                    alternatives = _relabelled(alternatives, renamed)
                     current, problem = moved.fit, moved.problem or problem
                     continue
             accepted.append(chosen.candidate)
@@ -705,8 +710,8 @@ class _Diagnosis(_Placement):
             if problem.plant.n_elements != used:
                 cands = catalogue(problem.plant, self.nominal, tests, names=s.candidates)
                 moved = dict(zip(before_labels, (a.label for a in accepted), strict=True))
-                self._evidence = {moved.get(k, k): v for k, v in self._evidence.items()}
-                alternatives = {moved.get(k, k): v for k, v in alternatives.items()}
+                self._evidence = _relabelled(self._evidence, moved)
+                alternatives = _relabelled(alternatives, moved)
             # a mode the model lacks may show only once the effects found are in
             poles = len(self.extra_poles)
             problem, current, _ = self.lacking(problem, tests, current, accepted, mesh,
@@ -933,14 +938,14 @@ class _Diagnosis(_Placement):
         c = chosen.candidate
         if c.effect not in POINT_EFFECTS or c.node is None:
             return None
-        plant = (chosen.problem or problem).plant
-        x = plant.stations.get(c.options["station"])
+        x = (chosen.problem or problem).plant.stations.get(c.options["station"])
+        stations, h = problem.plant.stations, 1.0 / problem.plant.n_elements
+        if x is None:
+            return None
         for a in accepted:
             if (a.effect == c.effect and a.node is not None and a.label not in merged
                     and a.options.get("direction") == c.options.get("direction")
-                    and x is not None and a.options["station"] in problem.plant.stations
-                    and abs(problem.plant.stations[a.options["station"]] - x)
-                    <= 1.0 / problem.plant.n_elements + 1e-12):
+                    and abs(stations.get(a.options["station"], np.inf) - x) <= h + 1e-12):
                 return a
         return None
 

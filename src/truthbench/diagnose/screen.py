@@ -32,6 +32,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from truthbench.diagnose.candidates import GROUNDING, at_fraction
+
 POINT_EFFECTS = {"grounded_spring": "spring", "grounded_dashpot": "dashpot",
                  "added_mass": "mass"}
 """Effects screened exactly, and the kind of their term."""
@@ -251,8 +253,6 @@ def beside_best(candidates, drops: dict, plant, share: float = 0.1) -> list:
     local minimum of a few grams). Grounded attachments stay at the declared supports
     (``[plant] supports``).
     """
-    from truthbench.diagnose.candidates import GROUNDING, at_fraction
-
     n = plant.n_elements
     nodal = [c for c in candidates if c.effect in POINT_EFFECTS and c.label in drops
              and c.node is not None and c.options.get("station") == f"n{c.node}"
