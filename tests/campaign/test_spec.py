@@ -48,6 +48,18 @@ def test_sensor_at_missing_station(quickstart_dict):
         parse_campaign(quickstart_dict, "cfg.toml")
 
 
+def test_a_joint_between_nodes_must_be_a_hinge(quickstart_dict):
+    quickstart_dict["plant"]["stations"] = {"gauge": 0.37}
+    joint = {"name": "joint", "station": "gauge", "parameters": {"stiffness_loss": 0.2}}
+    quickstart_dict["truth"]["effects"] = [joint]
+    with pytest.raises(CampaignError, match=r"(?s)'truth.effects\[0\].station'.*between nodes"
+                                            r".*form = \"hinge\".*got 'gauge'"):
+        parse_campaign(quickstart_dict, "cfg.toml")
+    joint["form"] = "hinge"
+    spec = parse_campaign(quickstart_dict, "cfg.toml")
+    assert spec.truth_effects()[0].options["form"] == "hinge"
+
+
 def test_unknown_parameter_names(quickstart_dict):
     quickstart_dict["truth"]["relative"]["youngs"] = 0.1
     with pytest.raises(CampaignError, match=r"(?s)'truth.relative.youngs'.*no parameter 'youngs'"):

@@ -2,17 +2,16 @@
 refined mesh.
 
 A parameter held at its bound (:meth:`Candidate.pin`) must enter the model exactly as the
-free parameter at that value. A joint is its element's flexibility: carried to the mesh
-halved it must stay centred where it was, so that the refined model converges to the one
-on a much finer mesh with the joint at the same point (the hinge's rotational stiffness
-kept), which the old mapping onto the element beginning at the same node does not."""
+free parameter at that value. A joint is a hinge at a point: carried to the mesh halved
+it must stay at that point with the same rotational stiffness, so that the refined model
+converges to the one on a much finer mesh with the same hinge."""
 
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from truthbench.diagnose.candidates import catalogue, hinge_parts, with_node_stations
+from truthbench.diagnose.candidates import at_fraction, catalogue, with_node_stations
 from truthbench.diagnose.core import _refined_candidate, _refined_theta
 from truthbench.diagnose.data import prepare
 from truthbench.diagnose.fit import Problem
@@ -45,12 +44,22 @@ def _joint(placed, nom, t, node):
                 if c.node == node and c.options["direction"] == "ry")
 
 
+def test_joint_candidates_are_hinges_at_the_element_centres():
+    problem, placed, nom, t = _problem(10)
+    joints = [c for c in catalogue(placed, nom, [t], names=("joint",))
+              if c.options["direction"] == "ry"]
+    assert [c.node for c in joints] == list(range(10))
+    assert all(c.options["form"] == "hinge" for c in joints)
+    assert [placed.stations[c.options["station"]] for c in joints] == pytest.approx(
+        (np.arange(10) + 0.5) / 10, abs=1e-12)
+
+
 @pytest.mark.parametrize("between", [False, True])
 def test_a_pinned_parameter_enters_the_model_at_its_value(between):
-    problem, placed, nom, t = _problem(10)
+    problem, placed, nom, t = _problem(10, {"x0.370000": 0.37})
     c = _joint(placed, nom, t, 3)
-    if between:  # shared by two elements (a joint between element centres)
-        c = replace(c, parts=hinge_parts(0.37, 10))
+    if between:  # a hinge off the element's centre (not affine in the loss)
+        c = at_fraction(c, 0.37, 10)
     theta = {**problem.theta0(), f"{c.label}.stiffness_loss": 0.3,
              f"{c.label}.damping_n_m_s_rad": 0.0}
     free = np.asarray(problem.predict(c.terms())(theta))
@@ -70,30 +79,23 @@ def _bending_hz(problem, cand, theta, count=5):
     return f[f > 10.0][:count]
 
 
-def test_a_joint_stays_centred_when_the_mesh_is_refined():
+def test_a_joint_keeps_its_point_and_stiffness_when_the_mesh_is_refined():
     loss = 0.5
-    coarse, placed, nom, t = _problem(20)
-    c = _joint(placed, nom, t, 7)  # element 7: [0.35, 0.4] of the length, centre 0.375
-    fine, fplaced, _, ft = _problem(40, {"x0.375000": 0.375})
+    coarse, placed, nom, t = _problem(20, {"x0.370000": 0.37})
+    c = at_fraction(_joint(placed, nom, t, 7), 0.37, 20)  # element 7, xi = 0.4
+    fine, _, _, _ = _problem(40, {"x0.370000": 0.37})
     renamed = {f"n{k}": f"n{2 * k}" for k in range(21)}
     (new, station) = _refined_candidate(c, renamed, coarse.plant)
-    assert station == {"x0.375000": 0.375}
-    assert new.parts == (("n14", 0.5), ("n15", 0.5)) and new.node == 15
+    assert station == {"x0.370000": 0.37}
+    assert new.label == c.label and new.node == 14  # 0.37 * 40 = 14.8
     theta = _refined_theta({f"{c.label}.stiffness_loss": loss,
                             f"{c.label}.damping_n_m_s_rad": 0.0}, [c], [new])
     assert theta[f"{new.label}.stiffness_loss"] == pytest.approx(2 * loss / (1 + loss))
     refined = _bending_hz(fine, new, theta)
-    # the old mapping: the element beginning at the renamed node, [0.35, 0.375]
-    old = _joint(fplaced, nom, ft, 14)
-    held_at_node = _bending_hz(fine, old, {f"{old.label}.stiffness_loss":
-                                           2 * loss / (1 + loss)})
-    # the reference: 160 elements, the same rotational stiffness shared by the two
-    # elements either side of 0.375 (the loss of one element of h/8: 8 L / (1 + 7 L))
-    ref_p, rplaced, _, rt = _problem(160, {"x0.375000": 0.375})
-    r = _joint(rplaced, nom, rt, 60)
-    r = replace(r, parts=hinge_parts(0.375, 160), label="joint@x0.375000.ry")
-    reference = _bending_hz(ref_p, r, {f"{r.label}.stiffness_loss":
-                                       8 * loss / (1 + 7 * loss)})
-    err_new = np.abs(refined / reference - 1)
-    err_old = np.abs(held_at_node / reference - 1)
-    assert err_new.max() < 0.5 * err_old.max()
+    # the reference: 160 elements, the same hinge (the loss of one element of h/8 with
+    # the same rotational stiffness: 8 L / (1 + 7 L)); the meshes' own differences out
+    ref_p, _, _, _ = _problem(160, {"x0.370000": 0.37})
+    r = at_fraction(c, 0.37, 160)
+    reference = _bending_hz(ref_p, r, {f"{r.label}.stiffness_loss": 8 * loss / (1 + 7 * loss)})
+    own = _bending_hz(fine, c, {}) / _bending_hz(ref_p, c, {}) - 1
+    assert np.abs(refined / reference - 1 - own).max() < 1e-3

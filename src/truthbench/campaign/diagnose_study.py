@@ -51,8 +51,8 @@ import numpy as np
 from truthbench.campaign.runner import simulate_one
 from truthbench.campaign.spec import CampaignSpec
 from truthbench.effects import EFFECTS, parse_effect
+from truthbench.effects.structural import element_bending
 from truthbench.errors import CampaignError
-from truthbench.fe.assembly import group_section
 from truthbench.plants import Sensor
 
 DEFAULT_STRENGTH = {
@@ -138,19 +138,6 @@ def joint_loss(EI: float, h_m: float, stiffness: float) -> float:
     rotational stiffness ``stiffness`` (N m/rad): the inverse of :func:`joint_stiffness`,
     ``loss = EI / (EI + k h)``."""
     return EI / (EI + stiffness * h_m)
-
-
-def element_bending(plant, params, node: int, direction: str) -> tuple[float, float]:
-    """``(EI, h)`` of the element a joint at ``node`` weakens (the one beginning there;
-    the last one at the last node), for the bending rotation ``direction`` (ry: bending
-    in the x-z plane, ``I_y``; rz: ``I_z``): N m^2 and m."""
-    e = min(node, plant.n_elements - 1)
-    group = plant.element_groups()[e]
-    props = plant.group_properties(params)[group]
-    sec = group_section(props, group)
-    second = sec.second_moment_z_m4 if direction == "rz" else sec.second_moment_y_m4
-    x = plant.node_x_m(params)
-    return props["E_pa"] * second, float(x[e + 1] - x[e])
 
 
 def effect_size(effect: str, values, bending: tuple[float, float] | None = None) -> float:
@@ -389,10 +376,11 @@ def truth_of(spec: CampaignSpec, draw: TrialDraw, form: str) -> Truth:
 
 # ---- scoring -----------------------------------------------------------------------
 def _found_place(f, plant, x) -> float | None:
-    """Where along the article a found effect is, m (a joint: its element's centre)."""
+    """Where along the article a found effect is, m (a joint at a node: its element's
+    centre; a hinge: its point)."""
     if f.node is None:
         return None
-    if f.effect == "joint":
+    if f.effect == "joint" and f.options.get("form", "element") == "element":
         e = min(f.node, plant.n_elements - 1)
         return float(0.5 * (x[e] + x[e + 1]))
     return float(x[f.node]) if f.x_m is None else float(f.x_m)

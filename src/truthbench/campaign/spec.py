@@ -330,7 +330,8 @@ def _check_references(spec: CampaignSpec) -> None:
         effects += [(f"tests[{j}].effects[{k}]", e) for k, e in enumerate(spec.test_effects(j))]
     for where, eff in effects:  # stations named in effect options must exist
         if "station" in eff.options:  # (on a node, unless the effect is a point attachment)
-            locate = plant.station_fraction if eff.effect.between_nodes else plant.station_node
+            locate = (plant.station_fraction if eff.effect.locates_between_nodes(eff.options)
+                      else plant.station_node)
             try:
                 locate(eff.options["station"])
             except ModelError as exc:

@@ -34,7 +34,8 @@ def _cmd_simulate(args) -> int:
     plant = spec.make_plant()
     for text, eff in zip(args.inject, extra, strict=True):
         if "station" in eff.options:
-            locate = plant.station_fraction if eff.effect.between_nodes else plant.station_node
+            locate = (plant.station_fraction if eff.effect.locates_between_nodes(eff.options)
+                      else plant.station_node)
             try:
                 locate(eff.options["station"])
             except ModelError as exc:

@@ -61,16 +61,12 @@ class Candidate:
         ``"channel_gain@mid.z.acc"``, ``"time_delay"``.
     fitted : tuple of FitParam
     node : int or None
-        The model node of a located candidate.
+        The model node of a located candidate (a joint's: the element its hinge is in).
     levels : tuple of (test, coefficient), optional
         Coulomb friction only: each test's equivalent viscous damping per newton of
         friction, ``sqrt(2 / pi) / sigma_v`` with ``sigma_v`` the RMS velocity at the
         friction's DOF in that test (statistical linearisation for a Gaussian response:
         ``E[F_c sign(v) v] / E[v^2]``), set by :func:`bind_levels`.
-    parts : tuple of (station, weight), optional
-        A joint between two element centres (:func:`hinge_parts`): its flexibility
-        shared by the two elements, the one nearer the point taking more. Its fitted
-        values are those of one element's joint of the same flexibility.
     pinned : tuple of (name, value), optional
         Fitted parameters held at a physical bound the fit crossed (:meth:`pin`): they
         are no longer in ``fitted`` and enter the model at that value.
@@ -82,7 +78,6 @@ class Candidate:
     fitted: tuple[FitParam, ...]
     node: int | None = None
     levels: tuple[tuple[str, float], ...] | None = None
-    parts: tuple[tuple[str, float], ...] | None = None
     pinned: tuple[tuple[str, float], ...] = ()
 
     def pin(self, values: Mapping[str, float]) -> Candidate:
@@ -115,12 +110,6 @@ class Candidate:
                 f"{self.label}/{test}", dashpot, names,
                 lambda f, k=k: {"damping_n_s_m": k * f["force_n"]}, init, (test,),
                 self.label) for test, k in self.levels)
-        if self.parts is not None:  # a joint between element centres
-            return tuple(EffectTerm(
-                f"{self.label}/{station}", parse_effect(
-                    {"name": self.effect, **self.options, "station": station}, self.label,
-                    "diagnosis"), names, lambda f, w=w: _hinge_share({**held, **f}, w), init,
-                None, self.label) for station, w in self.parts)
         to_values = EFFECTS[self.effect].diagnosis.to_values
         if held:
             to_values = ((lambda f: {**held, **f}) if to_values is None else
@@ -138,39 +127,7 @@ class Candidate:
         """The effect's own parameter values for fitted values (by own name)."""
         if self.effect == "coulomb_friction":
             return {"force_n": float(fitted["force_n"])}
-        if self.parts is not None:  # one element's joint of the same flexibility
-            return {k: float(v) for k, v in {**dict(self.pinned), **fitted}.items()}
         return self.terms()[0].values({f"{self.label}.{k}": v for k, v in fitted.items()})
-
-
-def _hinge_share(fitted: Mapping[str, float], weight: float) -> dict[str, float]:
-    """One element's part of a joint between element centres: ``weight`` of the joint's
-    flexibility (``loss / (1 - loss)`` per element length) and of its dashpot."""
-    loss = min(float(fitted["stiffness_loss"]), 0.999)
-    # no clamp at 0: a fit that steps below it must still see the parameter move the
-    # model (a negative loss is a stiffening, refused as unphysical by the bounds)
-    g = weight * loss / (1.0 - loss)
-    return {"stiffness_loss": g / (1.0 + g),
-            "damping_n_m_s_rad": weight * float(fitted["damping_n_m_s_rad"])}
-
-
-def hinge_parts(fraction: float, n_elements: int) -> tuple[tuple[str, float], ...]:
-    """The elements a joint at ``fraction`` of the element count shares its flexibility
-    between: the two whose centres bracket it, weighted linearly by the distance to
-    each centre (one element when the point is at its centre or past the last).
-
-    Returns
-    -------
-    tuple of (station, weight)
-        ``n<k>`` (the station where element k begins) and its share, summing to 1.
-    """
-    pos = fraction * n_elements - 0.5  # in element centres
-    e = int(np.floor(pos))
-    w = pos - e
-    parts = [(e, 1.0 - w), (e + 1, w)]
-    parts = [(k, x) for k, x in parts if 0 <= k < n_elements and x > 1e-9]
-    total = sum(x for _, x in parts)
-    return tuple((f"n{k}", x / total) for k, x in parts)
 
 
 def references(plant: Plant, nominal: Mapping[str, float], f_max_hz: float,
@@ -267,7 +224,16 @@ def catalogue(plant: Plant, nominal: Mapping[str, float], tests, *,
             dirs = [_BENDING[d] for d in translations if d in _BENDING]
         else:
             dirs = [None]
-        if form.location == "station":
+        if name == "joint":
+            # a concentrated hinge at every element's centre (its place is searched
+            # along the element once found: :mod:`.place`), tagged with its element
+            for k in range(plant.n_elements):
+                station = point_station((k + 0.5) / plant.n_elements)
+                for d in dirs:
+                    out.append(Candidate(name, {"station": station, "direction": d,
+                                                "form": "hinge"},
+                                         f"{name}@{station}.{d}", form.fitted, k))
+        elif form.location == "station":
             for k in nodes:
                 for d in dirs:
                     if d is not None and d not in free[k] and form.directions != "bending":
@@ -384,8 +350,11 @@ def point_station(fraction: float) -> str:
 
 def at_fraction(c: Candidate, fraction: float, n_elements: int) -> Candidate:
     """A located candidate moved to the station at ``fraction`` (:func:`point_station`,
-    which the plant must have), its node the nearest."""
+    which the plant must have), its node the nearest (a joint's: its element, the one
+    the point falls in)."""
     name = point_station(fraction)
     opts = {**c.options, "station": name}
     label = f"{c.effect}@{name}" + (f".{opts['direction']}" if "direction" in opts else "")
-    return replace(c, options=opts, label=label, node=int(round(fraction * n_elements)))
+    node = int(np.clip(np.floor(fraction * n_elements), 0, n_elements - 1)) \
+        if c.effect == "joint" else int(round(fraction * n_elements))
+    return replace(c, options=opts, label=label, node=node)

@@ -58,7 +58,6 @@ from truthbench.diagnose.candidates import (
     at_fraction,
     bind_levels,
     catalogue,
-    hinge_parts,
     not_tried,
     references,
     with_node_stations,
@@ -117,6 +116,11 @@ MODEL_FORM = {"element_physics": {"scale": 1.0}}
 """Candidates that change the model's form everywhere (the element's shear and rotary
 inertia), tried beside the best local finalists from their physical value
 (:meth:`_Diagnosis.with_form`)."""
+
+TWIN_ELEMENTS = 2
+"""A second attachment (or joint) of a found one's kind within this many elements of it
+is first tried as the found one moved (:meth:`_Diagnosis.twin`): the position searches
+reach an element either side of where a candidate screened."""
 
 
 @dataclass(frozen=True)
@@ -321,18 +325,12 @@ def _refined_candidate(c: Candidate, renamed: Mapping[str, str], plant
     needs there (name -> fraction; empty when it has one).
 
     A located candidate's node station is renamed to the same point's new node. A joint
-    is its element's flexibility (or two elements' shares of one, ``parts``): it stays
-    centred where it was, straddling the two halves of its element
-    (:func:`~.candidates.hinge_parts`); held at the new node it would move by a
-    quarter of the old element at every refinement."""
+    is a hinge at a point: it stays there, in the half of its element the point falls
+    in (its loss re-expressed for that half's length: :func:`_refined_theta`)."""
     n = plant.n_elements
     if c.effect == "joint" and c.node is not None:
-        centre = (min(c.node, n - 1) + 0.5) / n if c.parts is None else \
-            float(plant.stations[c.options["station"]])
-        moved = at_fraction(c, centre, 2 * n)
-        moved = replace(moved, node=int(np.clip(np.floor(centre * 2 * n), 0, 2 * n - 1)),
-                        parts=hinge_parts(centre, 2 * n))
-        return moved, {moved.options["station"]: centre}
+        point = float(plant.stations[c.options["station"]])
+        return at_fraction(c, point, 2 * n), {c.options["station"]: point}
     label = _renamed_label(c.label, c.options, renamed)
     return replace(c, options=_renamed_station(c.options, renamed), label=label,
                    node=None if c.node is None else c.node * 2), {}
@@ -514,10 +512,10 @@ class _Diagnosis(_Placement):
         mesh halved that refitting cannot absorb, in noise units; and the refined plant
         with its station renaming.
 
-        A joint is left out of both meshes: it belongs to an element (a stiffness loss
-        over its length), so halving the element changes what it is, not how well it is
-        resolved; every other effect converges with the mesh (a point attachment between
-        nodes to third order)."""
+        A joint is left out of both meshes: its hinge is exact for the statics of the
+        element it sits in, and its loss is stated per that element's length (the same
+        hinge is another loss on the halved mesh); every other effect converges with the
+        mesh (a point attachment between nodes to third order)."""
         fine, renamed = adequacy.refined_plant(problem.plant)
         kept = tuple(t for t in fit_.terms if t.spec.name != "joint")
         terms = tuple(_renamed_term(t, renamed) for t in kept)
@@ -855,12 +853,11 @@ class _Diagnosis(_Placement):
         # every located contender is placed between the nodes before the choice: a mass
         # between two nodes, held at the nearer one, loses to a joint's two parameters
         best_bic = max(r.delta_bic for r in finals)
-        unplaced = finals
         finals = [self.refine_position(problem, current, accepted, r, n, step, tests)
                   if r.candidate.node is not None and r.delta_bic >= 0.5 * best_bic else r
                   for r in finals]
         best = max(finals, key=lambda r: r.delta_bic)
-        return best, finals, self.with_form(problem, current, accepted, cands, unplaced, best,
+        return best, finals, self.with_form(problem, current, accepted, cands, finals, best,
                                             n, step, threshold, tests)
 
     def with_form(self, problem, current, accepted, cands, finals, best, n, step, threshold,
@@ -874,9 +871,10 @@ class _Diagnosis(_Placement):
         mimics both (a joint on a Timoshenko article lost to a mass by 6000 of delta
         BIC, and the shear terms could not then join the mass; with them the joint
         brought the residual from 54 to 4 times the noise): the form is tried with each
-        of the two best located finalists at their nodes (a quick refit from their fits,
-        the form from its physical value); the best pair that beats ``best`` by more than
-        the threshold, counting the form's parameter, is completed and placed. Not with
+        of the two best located finalists where they were placed (a quick refit from
+        their fits, the form from its physical value: a joint's fit is sharp in its
+        place); the best pair that beats ``best`` by more than the threshold, counting
+        the form's parameter, is completed and placed. Not with
         ``best`` itself: the form beside the best is the next step's to judge, as every
         other effect."""
         form = next((c for c in cands if c.effect in MODEL_FORM), None)
@@ -931,12 +929,13 @@ class _Diagnosis(_Placement):
         return form, replace(placed, delta_bic=dbic)
 
     def twin(self, accepted, chosen: Refit, problem, merged) -> Candidate | None:
-        """The accepted point attachment of the chosen one's kind and direction within
-        one element of it, not tried as a twin before (``merged``), or None: a second
-        mass beside a found one is as often the first one misplaced (its place searched
-        on a coarser mesh, or before a later effect) as a second mass."""
+        """The accepted point attachment or joint of the chosen one's kind and direction
+        within two elements of it, not tried as a twin before (``merged``), or None: a
+        second mass beside a found one is as often the first one misplaced (its place
+        searched on a coarser mesh, or before a later effect, within one element of
+        where it screened) as a second mass."""
         c = chosen.candidate
-        if c.effect not in POINT_EFFECTS or c.node is None:
+        if (c.effect not in POINT_EFFECTS and c.effect != "joint") or c.node is None:
             return None
         x = (chosen.problem or problem).plant.stations.get(c.options["station"])
         stations, h = problem.plant.stations, 1.0 / problem.plant.n_elements
@@ -945,7 +944,8 @@ class _Diagnosis(_Placement):
         for a in accepted:
             if (a.effect == c.effect and a.node is not None and a.label not in merged
                     and a.options.get("direction") == c.options.get("direction")
-                    and abs(stations.get(a.options["station"], np.inf) - x) <= h + 1e-12):
+                    and abs(stations.get(a.options["station"], np.inf) - x)
+                    <= TWIN_ELEMENTS * h + 1e-12):
                 return a
         return None
 

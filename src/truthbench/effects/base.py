@@ -137,6 +137,12 @@ class Effect:
     a node (:meth:`~truthbench.plants.base.Plant.station_node`)."""
 
     @classmethod
+    def locates_between_nodes(cls, options: Mapping[str, object]) -> bool:
+        """Whether the effect with ``options`` may have its station between nodes
+        (:attr:`between_nodes`; a joint only in its hinge form)."""
+        return cls.between_nodes
+
+    @classmethod
     def neutral_values(cls) -> tuple[dict[str, float], dict[str, object]] | None:
         """``(parameter values, option overrides)`` at which the effect does nothing, or
         None."""

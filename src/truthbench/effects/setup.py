@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 
 from truthbench.effects.base import EffectSpec, mean_values
 from truthbench.effects.hardware import Hardware
-from truthbench.effects.structural import sag_angles
+from truthbench.effects.structural import hinge_points, sag_angles
 from truthbench.plants.base import Actuator, Plant, Sensor, StructuralAdditions
 
 
@@ -29,6 +29,7 @@ class SetupBuilder:
     links: list = field(default_factory=list)
     points: list = field(default_factory=list)
     element_scale: list = field(default_factory=list)
+    hinges: list = field(default_factory=list)
     sag_scale: float = 0.0
     gravity_m_s2: float = 9.80665
     input_filters: list = field(default_factory=list)
@@ -79,8 +80,12 @@ class SetupBuilder:
         self.effects[label] = {"scope": spec.scope, **spec.options, **values}
 
     def freeze(self) -> Hardware:
+        # a joint's hinge (element, xi, direction, loss) on the element as the effects
+        # leave it (its shear deformation, its parameters)
+        points = tuple(self.points) + tuple(
+            p for h in self.hinges for p in hinge_points(self.plant, self.parameters, *h))
         additions = StructuralAdditions(tuple(self.links), tuple(self.element_scale),
-                                        points=tuple(self.points))
+                                        points=points)
         if self.sag_scale:
             angles = sag_angles(self.plant, self.parameters, additions,
                                 self.gravity_m_s2 * self.sag_scale)

@@ -18,7 +18,8 @@ from truthbench.effects.base import (
     register_effect,
 )
 from truthbench.errors import ModelError
-from truthbench.fe.assembly import direction_index
+from truthbench.fe.assembly import direction_index, group_section
+from truthbench.fe.beam import element_matrices, shear_modulus
 
 
 def _scale(setup, name: str, group: str, rel: float) -> None:
@@ -203,30 +204,156 @@ class BoundaryConditions(Effect):
             setup.links.append(("dashpot", dof, -1, values["damping_n_s_m"]))
 
 
+def element_bending(plant, params, node: int, direction: str) -> tuple[float, float]:
+    """``(EI, h)`` of the element a joint at ``node`` weakens (the one beginning there;
+    the last one at the last node), for the bending rotation ``direction`` (ry: bending
+    in the x-z plane, ``I_y``; rz: ``I_z``): N m^2 and m, at the resolved plant
+    parameters ``params``."""
+    e = min(node, plant.n_elements - 1)
+    group = plant.element_groups()[e]
+    props = plant.group_properties(params)[group]
+    sec = group_section(props, group)
+    second = sec.second_moment_z_m4 if direction == "rz" else sec.second_moment_y_m4
+    x = plant.node_x_m(params)
+    return props["E_pa"] * second, float(x[e + 1] - x[e])
+
+
+def hinge_points(plant, params, element: int, xi: float, direction: str, loss: float
+                 ) -> tuple[tuple[str, tuple[tuple[int, float], ...], float], ...]:
+    """A joint concentrated at local coordinate ``xi`` of ``element`` as the change of K
+    it makes, one or two rank-one terms ``("spring", weights, value)`` each adding
+    ``value v v^T`` (the form of
+    :attr:`~truthbench.plants.base.StructuralAdditions.points`).
+
+    The joint is the element's loss of ``loss`` of its stiffness gathered at the point:
+    a rotational spring ``k_b = EI (1 - loss) / (loss h)`` on the bending moment there
+    and, when the element has shear deformation (a Timoshenko element, scaled as the
+    plant's ``timoshenko``), a transverse spring ``k_s = kappa G A (1 - loss) /
+    (loss h scale)`` on the shear force; the same flexibility as the whole element
+    losing ``loss``, so a loss means the same joint wherever it is. The section forces
+    at the point are, by statics alone, ``G^T f`` of node A's end forces (``G``: the
+    moment's lever arm and the shear), so by the Woodbury identity the element's exact
+    static stiffness becomes ``K_e - K_e G (H + G^T K_e G)^-1 G^T K_e`` with
+    ``H = diag(k_b, k_s)``: exact for the statics of the Euler-Bernoulli and the
+    Timoshenko element (``G^T K_e G`` is the element's own restraint of a kink:
+    ``4 EI/h (3 xi^2 - 3 xi + 1)`` for Euler-Bernoulli, ``EI/h`` at the centre).
+
+    Parameters
+    ----------
+    plant : Plant
+    params : mapping
+        Resolved plant parameters.
+    element : int
+        The element, 0..n_elements-1.
+    xi : float
+        Local coordinate in [0, 1].
+    direction : {"ry", "rz"}
+        The bending rotation: ry bends in the x-z plane (``I_y``), rz in x-y (``I_z``).
+    loss : float
+        < 1.
+
+    Returns
+    -------
+    tuple of (str, tuple of (int, float), float)
+        Weights ``v`` on the element's two translations (N) and two rotations (N m),
+        and ``value`` (1/(N m) for the bending term); one term for an Euler-Bernoulli
+        element, two with shear deformation.
+    """
+    group = plant.element_groups()[element]
+    props = plant.group_properties(params)[group]
+    sec = group_section(props, group)
+    x = plant.node_x_m(params)
+    h = float(x[element + 1] - x[element])
+    scale = float(plant.timoshenko)
+    k12, _ = element_matrices(props["E_pa"], props["nu"], props["rho_kg_m3"], sec, h,
+                              timoshenko=scale)
+    # the plane's DOFs (w_A, theta_A, w_B, theta_B); this code's theta_y = -dw/dx
+    local, sign = ((1, 5, 7, 11), 1.0) if direction == "rz" else ((2, 4, 8, 10), -1.0)
+    K = k12[np.ix_(local, local)]
+    EI = props["E_pa"] * (sec.second_moment_z_m4 if direction == "rz"
+                          else sec.second_moment_y_m4)
+    flex = loss * h / (1.0 - loss)  # the lost part's length over its remaining stiffness
+    G = np.array([[xi * h, -sign, 0.0, 0.0]]).T  # the moment at the point
+    C = np.array([[flex / EI]])
+    if scale > 0:  # and the shear force there
+        kGA = sec.shear_coefficient(props["nu"]) * shear_modulus(props["E_pa"], props["nu"]) \
+            * sec.area_m2
+        G = np.hstack([G, [[1.0], [0.0], [0.0], [0.0]]])
+        C = np.diag([flex / EI, flex * scale / kGA])
+    KG = K @ G
+    middle = C @ np.linalg.inv(np.eye(len(C)) + G.T @ KG @ C)  # (H + G^T K G)^-1
+    mu, Q = np.linalg.eigh(0.5 * (middle + middle.T))
+    dofs = [6 * element + local[0], 6 * element + local[1],
+            6 * element + local[2], 6 * element + local[3]]
+    return tuple(("spring", tuple(zip(dofs, map(float, KG @ q), strict=True)), -float(m))
+                 for m, q in zip(mu, Q.T, strict=True) if m != 0)
+
+
+JOINT_FORMS = ("element", "hinge")
+"""How a joint is modelled: the whole element beginning at its station loses stiffness,
+or a concentrated hinge acts at its station (anywhere, between nodes too)."""
+
+
 @register_effect
 class Joint(Effect):
+    """A joint: a local loss of bending stiffness, with a rotational dashpot across it.
+
+    ``form = "element"`` (the default): the element beginning at the station (a node)
+    loses ``stiffness_loss`` of its stiffness, all of it (bending, axial, torsion), as a
+    bolted or clamped joint made by a short soft part. ``form = "hinge"``: that loss
+    gathered at the station, on a node or between nodes, in the bending plane of
+    ``direction``: a rotational spring, and a transverse one where the element has shear
+    deformation (:func:`hinge_points`); it is exact for the element's statics, and it
+    keeps at its point what the whole-element loss smears over the element, which the
+    higher bending modes, whose curvature changes sign within a few elements, tell
+    apart.
+    The dashpot acts on the relative bending rotation of the element's end nodes.
+    """
+
     name: ClassVar[str] = "joint"
     description: ClassVar[str] = ("a joint at a station: the element beginning there loses "
-                                  "stiffness, and a concentrated rotational dashpot acts "
+                                  "stiffness (or a concentrated hinge acts there: form = "
+                                  "\"hinge\"), and a concentrated rotational dashpot acts "
                                   "across it (non-proportional damping)")
     params: ClassVar = (EffectParam("stiffness_loss", 0.0, "fraction of the joint element's "
                                     "stiffness lost", 0.0),
                         EffectParam("damping_n_m_s_rad", 0.0, "dashpot on the relative "
                                     "bending rotation across the joint element", 0.0))
-    options: ClassVar = {"station": None, "direction": "ry"}
+    options: ClassVar = {"station": None, "direction": "ry", "form": "element"}
     diagnosis: ClassVar = Diagnosable(
         (FitParam("stiffness_loss", "unit", 0.1, minimum=0.0, maximum=0.99),
          FitParam("damping_n_m_s_rad", "rotary_damping", 0.1, minimum=0.0)),
         location="station", directions="bending")
 
+    @classmethod
+    def locates_between_nodes(cls, options) -> bool:
+        return options.get("form") == "hinge"
+
     def contribute(self, values, options, setup):
         plant = setup.plant
-        node = plant.station_node(options["station"])
-        e = min(node, plant.n_elements - 1)
-        if not values["stiffness_loss"] < 1:
+        form = options.get("form", "element")
+        if form not in JOINT_FORMS:
+            raise ModelError(f"effect 'joint': form must be one of {', '.join(JOINT_FORMS)}; "
+                             f"got {form!r}")
+        loss = values["stiffness_loss"]
+        if not loss < 1:
             raise ModelError("effect 'joint': stiffness_loss must be < 1")
-        setup.element_scale.append((e, 1.0 - values["stiffness_loss"]))
         d = direction_index(options["direction"])
+        if form == "element":
+            e = min(plant.station_node(options["station"]), plant.n_elements - 1)
+            setup.element_scale.append((e, 1.0 - loss))
+        else:
+            if options["direction"] not in ("ry", "rz"):
+                raise ModelError(f"effect 'joint': a hinge bends about ry or rz; got "
+                                 f"direction {options['direction']!r}")
+            pos = plant.station_fraction(options["station"]) * plant.n_elements
+            e = min(int(np.floor(pos)), plant.n_elements - 1)
+            xi = float(pos - e)
+            if abs(xi - round(xi)) <= 1e-9:
+                xi = float(round(xi))
+            if loss != 0:  # smooth through 0 for fitting; made when the setup is frozen,
+                # with the element's physics as the other effects leave it
+                setup.hinges.append((e, xi, options["direction"], loss))
         if values["damping_n_m_s_rad"] != 0:  # smooth through 0 for fitting
             setup.links.append(("dashpot", 6 * e + d, 6 * (e + 1) + d,
                                 values["damping_n_m_s_rad"]))

@@ -465,7 +465,8 @@ class Plant:
                 f"nodes {a} and {a + 1} of the {self.n_elements}-element mesh (nodes every "
                 f"1/{self.n_elements} of the length); only point attachments (an added "
                 f"mass, a grounded spring or dashpot) can sit between nodes: sensors, "
-                f"actuators, joints, friction and sensor mass need a station on a node")
+                f"actuators, joints (but a hinge: form = \"hinge\"), friction and sensor "
+                f"mass need a station on a node")
         return a
 
     def _check_fraction(self, fraction, what: str) -> None:
