@@ -3,8 +3,8 @@
 A point attachment (a mass, a spring, a dashpot) found at a node is moved along the two
 elements either side of it to where the data put it: its exact chi2 profile first, then a
 parabola through three quick refits. A joint, a concentrated hinge found at an element's
-centre, is moved along its element the same way (quick refits at its ends and centre).
-The refit replaces the found one when it explains the data better.
+centre, is moved by quick refits at halving spacings either side of the best point, then
+a parabola. The refit replaces the found one when it explains the data better.
 """
 
 from __future__ import annotations
@@ -112,9 +112,9 @@ class _Placement:
         best, four times (to a sixteenth of an element), and a parabola through the best
         and its two neighbours; the best point refitted. A joint is a local flexibility
         that the hardware puts where it is, not where the mesh has an element's centre,
-        and its fit is sharp in its place (a hinge a seventh of an element off lost a
-        third of its delta BIC). The refit replaces the chosen one when it explains the
-        data better."""
+        and its fit is sharp in its place (in one study trial, a hinge 0.15 of an
+        element off lost 8 % of its delta BIC, 0.4 off 39 %). The refit replaces the
+        chosen one when it explains the data better."""
         c = chosen.candidate
         plant = problem.plant
         N = plant.n_elements
