@@ -204,18 +204,26 @@ class BoundaryConditions(Effect):
             setup.links.append(("dashpot", dof, -1, values["damping_n_s_m"]))
 
 
+def _element(plant, params, element: int, direction: str):
+    """``(props, section, h, EI)`` of one element at the resolved plant parameters:
+    its group's properties, its cross-section, its length (m) and its bending stiffness
+    for the rotation ``direction`` (ry: bending in the x-z plane, ``I_y``; rz: ``I_z``;
+    N m^2)."""
+    group = plant.element_groups()[element]
+    props = plant.group_properties(params)[group]
+    sec = group_section(props, group)
+    x = plant.node_x_m(params)
+    second = sec.second_moment_z_m4 if direction == "rz" else sec.second_moment_y_m4
+    return props, sec, float(x[element + 1] - x[element]), props["E_pa"] * second
+
+
 def element_bending(plant, params, node: int, direction: str) -> tuple[float, float]:
     """``(EI, h)`` of the element a joint at ``node`` weakens (the one beginning there;
     the last one at the last node), for the bending rotation ``direction`` (ry: bending
     in the x-z plane, ``I_y``; rz: ``I_z``): N m^2 and m, at the resolved plant
     parameters ``params``."""
-    e = min(node, plant.n_elements - 1)
-    group = plant.element_groups()[e]
-    props = plant.group_properties(params)[group]
-    sec = group_section(props, group)
-    second = sec.second_moment_z_m4 if direction == "rz" else sec.second_moment_y_m4
-    x = plant.node_x_m(params)
-    return props["E_pa"] * second, float(x[e + 1] - x[e])
+    _, _, h, EI = _element(plant, params, min(node, plant.n_elements - 1), direction)
+    return EI, h
 
 
 def hinge_points(plant, params, element: int, xi: float, direction: str, loss: float
@@ -259,19 +267,13 @@ def hinge_points(plant, params, element: int, xi: float, direction: str, loss: f
         and ``value`` (1/(N m) for the bending term); one term for an Euler-Bernoulli
         element, two with shear deformation.
     """
-    group = plant.element_groups()[element]
-    props = plant.group_properties(params)[group]
-    sec = group_section(props, group)
-    x = plant.node_x_m(params)
-    h = float(x[element + 1] - x[element])
+    props, sec, h, EI = _element(plant, params, element, direction)
     scale = float(plant.timoshenko)
     k12, _ = element_matrices(props["E_pa"], props["nu"], props["rho_kg_m3"], sec, h,
                               timoshenko=scale)
     # the plane's DOFs (w_A, theta_A, w_B, theta_B); this code's theta_y = -dw/dx
     local, sign = ((1, 5, 7, 11), 1.0) if direction == "rz" else ((2, 4, 8, 10), -1.0)
     K = k12[np.ix_(local, local)]
-    EI = props["E_pa"] * (sec.second_moment_z_m4 if direction == "rz"
-                          else sec.second_moment_y_m4)
     flex = loss * h / (1.0 - loss)  # the lost part's length over its remaining stiffness
     G = np.array([[xi * h, -sign, 0.0, 0.0]]).T  # the moment at the point
     C = np.array([[flex / EI]])
@@ -283,8 +285,7 @@ def hinge_points(plant, params, element: int, xi: float, direction: str, loss: f
     KG = K @ G
     middle = C @ np.linalg.inv(np.eye(len(C)) + G.T @ KG @ C)  # (H + G^T K G)^-1
     mu, Q = np.linalg.eigh(0.5 * (middle + middle.T))
-    dofs = [6 * element + local[0], 6 * element + local[1],
-            6 * element + local[2], 6 * element + local[3]]
+    dofs = [6 * element + j for j in local]
     return tuple(("spring", tuple(zip(dofs, map(float, KG @ q), strict=True)), -float(m))
                  for m, q in zip(mu, Q.T, strict=True) if m != 0)
 
