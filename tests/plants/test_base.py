@@ -180,3 +180,76 @@ def test_a_point_between_nodes_adds_value_u_u_transpose():
         StructuralAdditions(points=(("inerter", u, 1.0),)).matrices(n)
     with pytest.raises(ModelError, match=r"point DOFs .* outside 0..125"):
         StructuralAdditions(points=(("mass", ((126, 1.0),), 1.0),)).matrices(n)
+
+
+def _element_of(plant, params, a):
+    """Stiffness and group properties of element ``a`` (its own assembly call)."""
+    from truthbench.fe.assembly import group_section
+    from truthbench.fe.beam import element_matrices
+    p = plant.resolve(params)
+    group = plant.element_groups()[a]
+    props = plant.group_properties(p)[group]
+    sec = group_section(props, group)
+    x = plant.node_x_m(p)
+    h = float(x[a + 1] - x[a])
+    k, _ = element_matrices(props["E_pa"], props["nu"], props["rho_kg_m3"], sec, h,
+                            timoshenko=plant.timoshenko)
+    return k, props, sec, h
+
+
+@pytest.mark.parametrize("scale", [0.0, 0.5, 1.0])
+@pytest.mark.parametrize("direction", ["y", "z"])
+def test_weights_are_the_static_field_of_a_timoshenko_cantilever(scale, direction):
+    """One element clamped at node A, loaded at node B by a force P, then by a moment M:
+    the weights at points inside give beam theory's deflection, ``P x^2 (3h - x) / 6EI
+    + P x / (kappa G A / s)`` and ``M x^2 / 2EI``, for the Euler-Bernoulli element and
+    the Timoshenko element at shear scales 0.5 and 1 (phi of order 1 on these short
+    elements; the Euler-Bernoulli Hermite cubic is 5 % off there)."""
+    from truthbench.fe.beam import shear_modulus
+    plant = make_plant("free_free_beam", n_elements=40, timoshenko=scale)
+    a = 13
+    k, props, sec, h = _element_of(plant, {}, a)
+    E, nu = props["E_pa"], props["nu"]
+    second = sec.second_moment_z_m4 if direction == "y" else sec.second_moment_y_m4
+    EI = E * second
+    kGA = sec.shear_coefficient(nu) * shear_modulus(E, nu) * sec.area_m2
+    shear = scale / kGA
+    phi = plant.shear_parameter(a, direction)
+    assert phi == pytest.approx(12 * EI * shear / h**2, rel=8 * EPS)
+    if scale == 1.0:
+        assert phi > 1.5  # the case this interpolation is for
+    # local DOFs of the plane (w, theta) at A and B; theta_y = -dw/dx in x-z
+    w_dof, r_dof = (1, 5) if direction == "y" else (2, 4)
+    sign = 1.0 if direction == "y" else -1.0
+    tip = [6 + w_dof, 6 + r_dof]
+    Kbb = k[np.ix_(tip, tip)]
+    P, M = 3.0, 0.7
+    for load, exact in (([P, 0.0], lambda x: P * x**2 * (3 * h - x) / (6 * EI) + P * x * shear),
+                        ([0.0, sign * M], lambda x: M * x**2 / (2 * EI))):
+        qb = np.linalg.solve(Kbb, load)
+        q = {6 * (a + 1) + w_dof: qb[0], 6 * (a + 1) + r_dof: qb[1]}
+        for xi in (0.1, 0.25, 0.5, 0.81):
+            w = plant.point_weights((a + xi) / 40, direction)
+            got = sum(wt * q.get(g, 0.0) for g, wt in w)
+            # a 2x2 solve and a four-term sum, at the scale of the tip deflection
+            assert got == pytest.approx(exact(xi * h), rel=0, abs=64 * EPS * abs(qb[0]))
+
+
+def test_timoshenko_weights_give_the_elements_consistent_translational_mass():
+    """``rho A h int N N^T dxi`` over the weights of points inside an element is the
+    Timoshenko element's translational mass (Przemieniecki's coefficients, as
+    assembled), so a point mass between nodes and the element's own inertia are one
+    discretisation."""
+    from truthbench.fe.beam import _bending_blocks
+    plant = make_plant("free_free_beam", n_elements=40, timoshenko=1.0)
+    a = 7
+    _, props, sec, h = _element_of(plant, {}, a)
+    rhoA = props["rho_kg_m3"] * sec.area_m2
+    phi = plant.shear_parameter(a, "y")
+    _, mt = _bending_blocks(1.0, rhoA, h, 0.0, phi)
+    xg, wg = np.polynomial.legendre.leggauss(6)  # exact for the degree-6 integrand
+    m = np.zeros((4, 4))
+    for x, wq in zip(0.5 * (xg + 1), 0.5 * wg, strict=True):
+        u = np.array([wt for _, wt in plant.point_weights((a + x) / 40, "y")])
+        m += rhoA * h * wq * np.outer(u, u)
+    np.testing.assert_allclose(m, mt, rtol=0, atol=64 * EPS * np.abs(mt).max())

@@ -225,7 +225,7 @@ def point_profiles(problem, current, candidates, sizes: dict) -> dict:
     hw = _ready(problem, current)
     if hw is None:
         return {}
-    plant, params = problem.plant, hw.parameters
+    plant, params = hw.plant, hw.parameters
     labels = hw.model.dof_labels
     weights = {c.label: _weights(plant, params, c.options["station"],
                                  _directions(c.effect, c.options), labels) for c in cands}
@@ -304,7 +304,7 @@ def structural_profiles(problem, current, candidates, sizes: dict) -> dict:
     plans = {}
     for c in cands:
         if c.effect == "coulomb_friction":
-            w = _weights(problem.plant, hw.parameters, c.options["station"],
+            w = _weights(hw.plant, hw.parameters, c.options["station"],
                          [c.options["direction"]], labels)
             if w:
                 levels = dict(c.levels)
@@ -381,7 +381,7 @@ def position_profile(problem, current, candidate, fractions: Sequence[float],
         return []
     labels = hw.model.dof_labels
     dirs = _directions(candidate.effect, candidate.options)
-    weights = [_weights(problem.plant, hw.parameters, float(fr), dirs, labels)
+    weights = [_weights(hw.plant, hw.parameters, float(fr), dirs, labels)
                for fr in fractions]
     rec = _Receptances(problem, current, sorted({lab for w in weights for lab in w}))
     out = []

@@ -30,10 +30,9 @@ from truthbench.effects.base import (
 def _attach(setup, options, kind: str, value: float) -> None:
     """``value`` of ``kind`` to ground at the effect's station and direction (checked
     even when ``value`` is 0; nothing is added then, so a fit is smooth through 0)."""
-    weights = setup.plant.point_weights(options["station"], options["direction"],
-                                        setup.parameters)
+    setup.plant.point_weights(options["station"], options["direction"], setup.parameters)
     if value != 0:
-        setup.attach(kind, weights, value)
+        setup.attach(kind, options["station"], options["direction"], value)
 
 
 @register_effect

@@ -55,18 +55,22 @@ class SetupBuilder:
         base = name.split("@")[0]
         self.parameters[name] = self.parameters.get(name, self.parameters[base]) * factor
 
-    def attach(self, kind: str, weights, value: float) -> None:
+    def attach(self, kind: str, position, direction: str, value: float) -> None:
         """A grounded point attachment: ``value`` (kind "mass", "spring" or "dashpot")
-        on the displacement ``sum(w * q[dof])`` of ``weights``
-        (:meth:`~truthbench.plants.base.Plant.point_weights`). On a node (one weight of
-        1.0) it is the grounded link at that DOF, kept in :attr:`links` in the order the
-        effects contribute, so the assembled matrices are the same to the last bit as
-        those of a link; between nodes it is a point of
-        :attr:`~truthbench.plants.base.StructuralAdditions.points`."""
+        on the displacement ``direction`` of the point ``position`` (a station or a
+        fraction, as :meth:`~truthbench.plants.base.Plant.point_weights`; checked now).
+        On a node (one weight of 1.0) it is the grounded link at that DOF, kept in
+        :attr:`links` in the order the effects contribute, so the assembled matrices are
+        the same to the last bit as those of a link. Between nodes it is kept as
+        ``(kind, position, direction, value)`` in :attr:`points` and weighted by
+        :meth:`freeze` with the element as the effects leave it: a Timoshenko element's
+        weights depend on its shear (``element_physics``) and its length and section
+        (a material or geometry effect), whichever effect comes last."""
+        weights = self.plant.point_weights(position, direction, self.parameters)
         if len(weights) == 1 and weights[0][1] == 1.0:
             self.links.append((kind, weights[0][0], -1, value))
         else:
-            self.points.append((kind, tuple(weights), value))
+            self.points.append((kind, position, direction, value))
 
     def add(self, spec: EffectSpec, values: Mapping[str, float] | None = None,
             label: str | None = None) -> None:
@@ -82,7 +86,9 @@ class SetupBuilder:
     def freeze(self) -> Hardware:
         # a joint's hinge (element, xi, direction, loss) on the element as the effects
         # leave it (its shear deformation, its parameters)
-        points = tuple(self.points) + tuple(
+        points = tuple(
+            (kind, self.plant.point_weights(position, d, self.parameters), value)
+            for kind, position, d, value in self.points) + tuple(
             p for h in self.hinges for p in hinge_points(self.plant, self.parameters, *h))
         additions = StructuralAdditions(tuple(self.links), tuple(self.element_scale),
                                         points=points)

@@ -385,8 +385,7 @@ class AddedMass(Effect):
 
     def contribute(self, values, options, setup):
         for d in ("x", "y", "z"):
-            weights = setup.plant.point_weights(options["station"], d, setup.parameters)
-            setup.attach("mass", weights, values["mass_kg"])
+            setup.attach("mass", options["station"], d, values["mass_kg"])
 
 
 @register_effect
