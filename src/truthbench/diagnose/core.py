@@ -100,12 +100,16 @@ from truthbench.diagnose.search import (
 )
 from truthbench.diagnose.settings import DiagnoseSettings
 from truthbench.diagnose.verdict import (
+    FAR_POLE,
+    NESTED,
     Alternative,
     Measurement,
     ambiguous,
+    far_pole_hz,
     measurements,
     parsimonious,
 )
+from truthbench.effects import EFFECTS
 from truthbench.errors import IdentifiabilityError, ModelError
 from truthbench.measure.frfdata import FRFData
 from truthbench.measure.leakage import Estimator
@@ -401,6 +405,7 @@ class _Diagnosis(_Placement):
         self.thresholds: list[float] = []
         self.extra_poles: tuple[tuple[float, float], ...] = ()
         self._evidence: dict[str, float] = {}
+        self._reduced: dict[str, str] = {}  # second-order label -> its first-order one
 
     # ---- the problem ------------------------------------------------------------------
     def problem(self, plant, tests, accepted: Sequence[Candidate] = ()) -> Problem:
@@ -697,7 +702,11 @@ class _Diagnosis(_Placement):
             accepted, current, problem, gone = self.backward(problem, current, accepted, n,
                                                              step, self.thresholds[-1])
             dropped += gone
-            if newest.label not in {a.label for a in accepted}:
+            # a second-order low-pass reduced to its first-order limit: the runners-up
+            # it was chosen over were judged against the other form
+            for old in self._reduced:
+                alternatives.pop(old, None)
+            if self._reduced.get(newest.label, newest.label) not in {a.label for a in accepted}:
                 break  # the step added nothing that holds: the search has converged
             # the model with its effects must still be resolved by its mesh (an
             # attachment between nodes is represented to O(h^3) only)
@@ -976,6 +985,8 @@ class _Diagnosis(_Placement):
         """
         gone = []
         accepted, current, problem = self.held(problem, current, accepted)
+        accepted, current, problem = self.reduced(problem, current, accepted, n, step,
+                                                  threshold)
         while len(accepted) > 1:
             worst = None
             for a in accepted:
@@ -1011,6 +1022,53 @@ class _Diagnosis(_Placement):
             current, problem = without, with_offsets(pc, without)
             accepted, current, problem = self.held(problem, current, accepted)
         return accepted, current, problem, gone
+
+    def reduced(self, problem, current, accepted, n, step, threshold):
+        """The accepted second-order low-passes whose ``s^2`` term the data no longer
+        need, replaced by the first-order low-pass they contain (:data:`NESTED`), the
+        model refitted. A term is not needed when the refit without it loses less than
+        ``threshold`` of delta BIC, when its upper pole lies beyond :data:`FAR_POLE`
+        times the band's top (a lag the band cannot resolve from a first-order one), or
+        when a refit has held it at 0. A resonance chosen while the model lacked
+        another effect can collapse to its first-order limit once that effect is in
+        (in one study trial a natural frequency of 16 kHz with a damping ratio of 30,
+        a corner at 278 Hz against the truth's 277 Hz), and its ``s^2`` coefficient at
+        0 then breaks the finite differences of every later refit. Returns (accepted,
+        current, problem); each replacement is recorded in ``self._reduced``."""
+        f_max = max(float(t.freq_hz.max()) for t in self.tests)
+        for a in list(accepted):
+            if a.effect not in NESTED:
+                continue
+            own = {**dict(a.pinned), **fitted_own(a, current.theta)}
+            if not {"a_s2", "b_s"} <= set(own):
+                continue
+            simpler = NESTED[a.effect][0]
+            b = Candidate(simpler, dict(a.options), a.label.replace(a.effect, simpler, 1),
+                          EFFECTS[simpler].diagnosis.fitted, a.node)
+            rest = [b if x is a else x for x in accepted]
+            start = {k: v for k, v in current.theta.items()
+                     if not k.startswith(f"{a.label}.")}
+            start[f"{b.label}.tau_s"] = own["b_s"]
+            try:
+                pc = with_offsets(problem, current)
+                pc = replace(pc, scales={**pc.scales, **b.scales(self.refs)})
+                simple = fit(pc, terms_of(rest, start), start=start)
+            except REFIT_ERRORS:
+                continue
+            far = own["a_s2"] <= 0 or far_pole_hz(own["a_s2"], own["b_s"]) > FAR_POLE * f_max
+            dbic = delta_bic(n, simple.chi2, current.chi2, len(a.fitted) - len(b.fitted))
+            if not far and dbic >= threshold:
+                continue
+            values = a.effect_values(fitted_own(a, current.theta))
+            self.tried.append(Tried(
+                step, a.label, a.effect, a.options, float("nan"), float(dbic),
+                fitted_own(a, current.theta), values,
+                f"reduced to {b.label}: " + ("its upper pole is beyond the band's resolution"
+                                            if far else "its s^2 term is not significant")))
+            self._reduced[a.label] = b.label
+            self._evidence = _relabelled(self._evidence, {a.label: b.label})
+            accepted, current, problem = rest, simple, with_offsets(pc, simple)
+        return accepted, current, problem
 
     def held(self, problem, current, accepted):
         """The accepted effects with the fitted parameters a later refit moved beyond a
