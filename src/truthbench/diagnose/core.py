@@ -122,6 +122,10 @@ inertia), tried beside the best local finalists from their physical value
 (:meth:`_Diagnosis.with_form`)."""
 
 TWIN_ELEMENTS = 2
+REPLACE_ROUNDS = 2
+"""Rounds of placing every found attachment and joint anew with the others in, at the
+end of the search (:meth:`_Diagnosis.replace_all`), each followed by backward
+elimination: a place moves by at most half an element a round."""
 """A second attachment (or joint) of a found one's kind within this many elements of it
 is first tried as the found one moved (:meth:`_Diagnosis.twin`): the position searches
 reach an element either side of where a candidate screened."""
@@ -727,6 +731,18 @@ class _Diagnosis(_Placement):
                 # the baseline compared on the same terms (mesh, modes modelled in)
                 before_problem, baseline = self.rebaseline(problem, tests, before_problem,
                                                            baseline)
+        for _ in range(REPLACE_ROUNDS):  # each found place, with the others found
+            if len(accepted) < 2:
+                break
+            accepted, current, problem, renamed = self.replace_all(
+                problem, current, accepted, n, len(self.thresholds), tests)
+            if not renamed:
+                break
+            self._evidence = _relabelled(self._evidence, renamed)
+            alternatives = _relabelled(alternatives, renamed)
+            accepted, current, problem, gone = self.backward(
+                problem, current, accepted, n, len(self.thresholds), self.thresholds[-1])
+            dropped += gone
         found = self.evidence(problem, current, accepted, n, alternatives)
         before = residual_views(tests, _parts(tests, baseline.model), len(baseline.names),
                                 modes=_modes(tests, before_problem, baseline, data_modes))
@@ -972,6 +988,31 @@ class _Diagnosis(_Placement):
         here = Refit(delta_bic(n, without.chi2, current.chi2, len(twin.fitted)), twin,
                      current, "refitted", pc)
         return self.refine_position(pc, without, others, here, n, step, tests)
+
+    def replace_all(self, problem, current, accepted, n, step, tests):
+        """Every accepted point attachment and joint placed anew with all the other
+        found effects in (:meth:`move`): each was placed at its own step, against a
+        model that lacked the effects found after it, and a place biased so leaves a
+        residual that a second, small effect of the same kind takes up (a joint placed
+        3.7 cm from the truth's, and a 3 % joint at the other end). Returns (accepted,
+        current, problem, {old label: new label})."""
+        renamed = {}
+        for a in list(accepted):
+            if a.node is None or (a.effect not in POINT_EFFECTS and a.effect != "joint"):
+                continue
+            moved = self.move(problem, current, accepted, a, n, step, tests)
+            if moved is None or moved.candidate.label == a.label or \
+                    not moved.fit.chi2 < current.chi2:
+                continue
+            m = moved.candidate
+            own = fitted_own(m, moved.fit.theta)
+            self.tried.append(Tried(step, m.label, m.effect, m.options, float("nan"),
+                                    moved.delta_bic, own, m.effect_values(own),
+                                    f"{a.label} placed anew with the other effects in"))
+            renamed[a.label] = m.label
+            accepted = [m if x is a else x for x in accepted]
+            current, problem = moved.fit, moved.problem or problem
+        return accepted, current, problem, renamed
 
     def backward(self, problem, current, accepted, n, step, threshold):
         """Drop the effects that are not significant in the model with the others (each
