@@ -122,13 +122,14 @@ inertia), tried beside the best local finalists from their physical value
 (:meth:`_Diagnosis.with_form`)."""
 
 TWIN_ELEMENTS = 2
+"""A second attachment (or joint) of a found one's kind within this many elements of it
+is first tried as the found one moved (:meth:`_Diagnosis.twin`): the position searches
+reach an element either side of where a candidate screened."""
+
 REPLACE_ROUNDS = 2
 """Rounds of placing every found attachment and joint anew with the others in, at the
 end of the search (:meth:`_Diagnosis.replace_all`), each followed by backward
 elimination: a place moves by at most half an element a round."""
-"""A second attachment (or joint) of a found one's kind within this many elements of it
-is first tried as the found one moved (:meth:`_Diagnosis.twin`): the position searches
-reach an element either side of where a candidate screened."""
 
 
 @dataclass(frozen=True)
