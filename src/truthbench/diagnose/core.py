@@ -126,10 +126,11 @@ TWIN_ELEMENTS = 2
 is first tried as the found one moved (:meth:`_Diagnosis.twin`): the position searches
 reach an element either side of where a candidate screened."""
 
-REPLACE_ROUNDS = 2
+REPLACE_ROUNDS = 3
 """Rounds of placing every found attachment and joint anew with the others in, at the
 end of the search (:meth:`_Diagnosis.replace_all`), each followed by backward
-elimination: a place moves by at most half an element a round."""
+elimination, until nothing moves: a place moves by at most :data:`TWIN_ELEMENTS`
+elements a round."""
 
 
 @dataclass(frozen=True)
@@ -978,7 +979,8 @@ class _Diagnosis(_Placement):
     def move(self, problem, current, accepted, twin: Candidate, n, step, tests
              ) -> Refit | None:
         """``twin`` placed and sized anew with the other accepted effects in (its
-        position searched between the nodes next to it: :meth:`refine_position`), or
+        position searched :data:`TWIN_ELEMENTS` elements either side:
+        :meth:`refine_position`), or
         None when the model without it cannot be refitted."""
         others = [a for a in accepted if a is not twin]
         pc = with_offsets(problem, current)
@@ -988,7 +990,8 @@ class _Diagnosis(_Placement):
             return None
         here = Refit(delta_bic(n, without.chi2, current.chi2, len(twin.fitted)), twin,
                      current, "refitted", pc)
-        return self.refine_position(pc, without, others, here, n, step, tests)
+        return self.refine_position(pc, without, others, here, n, step, tests,
+                                    reach=TWIN_ELEMENTS)
 
     def replace_all(self, problem, current, accepted, n, step, tests):
         """Every accepted point attachment and joint placed anew with all the other
@@ -1000,6 +1003,20 @@ class _Diagnosis(_Placement):
         renamed = {}
         for a in list(accepted):
             if a.node is None or (a.effect not in POINT_EFFECTS and a.effect != "joint"):
+                continue
+            if a not in accepted:
+                continue  # merged into a twin this round
+            merged = self.merge(problem, current, accepted, a, n, step, tests)
+            if merged is not None:
+                b, moved = merged
+                m = moved.candidate
+                self.tried.append(Tried(
+                    step, b.label, b.effect, b.options, float("nan"),
+                    delta_bic(n, moved.fit.chi2, current.chi2, len(b.fitted)),
+                    status=f"dropped: {a.label} moved to {m.label} explains as much"))
+                renamed[a.label] = m.label
+                accepted = [m if x is a else x for x in accepted if x is not b]
+                current, problem = moved.fit, moved.problem or problem
                 continue
             moved = self.move(problem, current, accepted, a, n, step, tests)
             if moved is None or moved.candidate.label == a.label or \
@@ -1014,6 +1031,34 @@ class _Diagnosis(_Placement):
             accepted = [m if x is a else x for x in accepted]
             current, problem = moved.fit, moved.problem or problem
         return accepted, current, problem, renamed
+
+    def merge(self, problem, current, accepted, a: Candidate, n, step, tests):
+        """``(b, refit)`` when ``a`` moved and resized, without ``b``, its weaker twin
+        (another accepted effect of its kind and direction within
+        :data:`TWIN_ELEMENTS` elements), explains the data within the last step's
+        threshold of the two, else None: a pair found at two steps can each hold the
+        other near a biased place (a spring 2 cm off with a 136 N/m spring beside it),
+        which placing one at a time moves only slowly apart."""
+        stations, h = problem.plant.stations, 1.0 / problem.plant.n_elements
+        x = stations.get(a.options["station"], np.inf)
+        twins = [b for b in accepted if b is not a and b.effect == a.effect
+                 and b.node is not None
+                 and b.options.get("direction") == a.options.get("direction")
+                 and abs(stations.get(b.options["station"], np.inf) - x)
+                 <= TWIN_ELEMENTS * h + 1e-12
+                 and self._evidence.get(b.label, 0.0) <= self._evidence.get(a.label, 0.0)]
+        for b in twins:
+            rest = [x for x in accepted if x is not b]
+            try:
+                pc = with_offsets(problem, current)
+                without = fit(pc, terms_of(rest, current.theta), start=current.theta)
+            except REFIT_ERRORS:
+                continue
+            moved = self.move(pc, without, rest, a, n, step, tests)
+            if moved is not None and delta_bic(n, moved.fit.chi2, current.chi2,
+                                               len(b.fitted)) < self.thresholds[-1]:
+                return b, moved
+        return None
 
     def backward(self, problem, current, accepted, n, step, threshold):
         """Drop the effects that are not significant in the model with the others (each

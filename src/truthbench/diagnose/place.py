@@ -31,15 +31,16 @@ class _Placement:
     """The placing steps of :class:`~truthbench.diagnose.core._Diagnosis` (a mixin: they
     use its settings, references and record of candidates tried)."""
 
-    def refine_position(self, problem, current, accepted, chosen: Refit, n, step, tests
-                        ) -> Refit:
+    def refine_position(self, problem, current, accepted, chosen: Refit, n, step, tests,
+                        reach: int = 1) -> Refit:
         """A point attachment's position searched between the nodes next to it: its
-        exact chi2 profile along the two elements either side (eight points each, then
+        exact chi2 profile along ``reach`` elements either side (eight points each, then
         eight between the best and its neighbours), and the best point refitted. The
         refit replaces the chosen one when it explains the data better."""
         c = chosen.candidate
         if c.effect == "joint" and c.node is not None:
-            return self.refine_hinge(problem, current, accepted, chosen, n, step, tests)
+            return self.refine_hinge(problem, current, accepted, chosen, n, step, tests,
+                                     reach)
         if c.effect not in POINT_EFFECTS or c.node is None:
             return chosen
         plant = problem.plant
@@ -48,7 +49,7 @@ class _Placement:
         if not value > 0:
             return chosen
         strengths = value * np.logspace(-0.4, 0.4, 17)
-        lo, hi = max(c.node - 1, 0) / N, min(c.node + 1, N) / N
+        lo, hi = max(c.node - reach, 0) / N, min(c.node + reach, N) / N
         # the profile adapts the other parameters to first order from where it starts:
         # start from the chosen fit's values of them (the declared parameters moved for
         # this attachment), without the attachment
@@ -60,11 +61,11 @@ class _Placement:
         except REFIT_ERRORS:
             near = current
         best = None
-        for fractions in (np.linspace(lo, hi, 17), None):
+        d = 1.0 / (8 * N)  # an eighth of an element
+        for fractions in (np.linspace(lo, hi, int(round((hi - lo) / d)) + 1), None):
             if fractions is None:
                 if best is None:
                     return chosen
-                d = (hi - lo) / 16
                 fractions = np.clip(best[0] + d * np.linspace(-1, 1, 9), lo, hi)
             prof = position_profile(problem, near, c, fractions, strengths)
             top = max(prof, key=lambda x: x[1], default=None)
@@ -82,7 +83,7 @@ class _Placement:
 
         # the profile's first-order adaptation of the declared parameters blurs the
         # position by a fraction of an element: a parabola through three quick refits
-        h = (hi - lo) / 32
+        h = d / 2
         trio = [(fr, quick_at(fr)) for fr in np.clip(fraction + h * np.arange(-1, 2), lo, hi)]
         if all(q is not None and q.physical for _, (_, q) in trio) and len(
                 {fr for fr, _ in trio}) == 3:
@@ -105,11 +106,11 @@ class _Placement:
             return chosen
         return full if full.physical and full.delta_bic > chosen.delta_bic else chosen
 
-    def refine_hinge(self, problem, current, accepted, chosen: Refit, n, step, tests
-                     ) -> Refit:
+    def refine_hinge(self, problem, current, accepted, chosen: Refit, n, step, tests,
+                     reach: int = 1) -> Refit:
         """A joint's hinge moved along the article to where the data put it: quick
-        refits half an element either side, then at half the spacing either side of the
-        best, four times (to a sixteenth of an element), and a parabola through the best
+        refits ``reach`` half elements either side, then at half the spacing either side
+        of the best, to a sixteenth of an element, and a parabola through the best
         and its two neighbours; the best point refitted. A joint is a local flexibility
         that the hardware puts where it is, not where the mesh has an element's centre,
         and its fit is sharp in its place (in one study trial, a hinge 0.15 of an
@@ -139,8 +140,8 @@ class _Placement:
             q = quick_at(fr)[1]
             return q.fit.chi2 if q is not None and q.physical else np.inf
 
-        best, d = here, 0.5 / N
-        for _ in range(4):
+        best, d = here, 0.5 * reach / N
+        while d > 0.04 / N:  # 1/2, 1/4, 1/8, 1/16 of an element (with reach 1)
             best = min((best - d, best, best + d), key=chi2)
             d /= 2
         d *= 2
