@@ -317,6 +317,15 @@ def diagnose(data: FRFData | Sequence[FRFData], plant: Plant, nominal: Mapping[s
         return _Diagnosis(data, plant, nominal, parameters, settings).run()
 
 
+def _near(c: Candidate, x: float, a: Candidate, plant: Plant) -> bool:
+    """Whether ``a`` is a located effect of ``c``'s kind and direction within
+    :data:`TWIN_ELEMENTS` elements of the fraction ``x`` (``c``'s place)."""
+    return (a.effect == c.effect and a.node is not None
+            and a.options.get("direction") == c.options.get("direction")
+            and abs(plant.stations.get(a.options["station"], np.inf) - x)
+            <= TWIN_ELEMENTS / plant.n_elements + 1e-12)
+
+
 def _renamed_station(options: Mapping, renamed: Mapping[str, str]) -> dict:
     st = options.get("station")
     return dict(options) if st is None else {**options, "station": renamed.get(st, st)}
@@ -965,29 +974,32 @@ class _Diagnosis(_Placement):
         if (c.effect not in POINT_EFFECTS and c.effect != "joint") or c.node is None:
             return None
         x = (chosen.problem or problem).plant.stations.get(c.options["station"])
-        stations, h = problem.plant.stations, 1.0 / problem.plant.n_elements
         if x is None:
             return None
-        for a in accepted:
-            if (a.effect == c.effect and a.node is not None and a.label not in merged
-                    and a.options.get("direction") == c.options.get("direction")
-                    and abs(stations.get(a.options["station"], np.inf) - x)
-                    <= TWIN_ELEMENTS * h + 1e-12):
-                return a
-        return None
+        return next((a for a in accepted if a.label not in merged
+                     and _near(c, x, a, problem.plant)), None)
+
+    @staticmethod
+    def without(problem, current, accepted, a: Candidate):
+        """``(the accepted effects but a, the problem with current's offsets, the model
+        refitted without a)``, or None when it cannot be refitted."""
+        rest = [x for x in accepted if x is not a]
+        try:
+            pc = with_offsets(problem, current)
+            return rest, pc, fit(pc, terms_of(rest, current.theta), start=current.theta)
+        except REFIT_ERRORS:
+            return None
 
     def move(self, problem, current, accepted, twin: Candidate, n, step, tests
              ) -> Refit | None:
         """``twin`` placed and sized anew with the other accepted effects in (its
         position searched :data:`TWIN_ELEMENTS` elements either side:
-        :meth:`refine_position`), or
-        None when the model without it cannot be refitted."""
-        others = [a for a in accepted if a is not twin]
-        pc = with_offsets(problem, current)
-        try:
-            without = fit(pc, terms_of(others, current.theta), start=current.theta)
-        except REFIT_ERRORS:
+        :meth:`refine_position`), or None when the model without it cannot be
+        refitted."""
+        out = self.without(problem, current, accepted, twin)
+        if out is None:
             return None
+        others, pc, without = out
         here = Refit(delta_bic(n, without.chi2, current.chi2, len(twin.fitted)), twin,
                      current, "refitted", pc)
         return self.refine_position(pc, without, others, here, n, step, tests,
@@ -1039,21 +1051,14 @@ class _Diagnosis(_Placement):
         threshold of the two, else None: a pair found at two steps can each hold the
         other near a biased place (a spring 2 cm off with a 136 N/m spring beside it),
         which placing one at a time moves only slowly apart."""
-        stations, h = problem.plant.stations, 1.0 / problem.plant.n_elements
-        x = stations.get(a.options["station"], np.inf)
-        twins = [b for b in accepted if b is not a and b.effect == a.effect
-                 and b.node is not None
-                 and b.options.get("direction") == a.options.get("direction")
-                 and abs(stations.get(b.options["station"], np.inf) - x)
-                 <= TWIN_ELEMENTS * h + 1e-12
+        x = problem.plant.stations.get(a.options["station"], np.inf)
+        twins = [b for b in accepted if b is not a and _near(a, x, b, problem.plant)
                  and self._evidence.get(b.label, 0.0) <= self._evidence.get(a.label, 0.0)]
         for b in twins:
-            rest = [x for x in accepted if x is not b]
-            try:
-                pc = with_offsets(problem, current)
-                without = fit(pc, terms_of(rest, current.theta), start=current.theta)
-            except REFIT_ERRORS:
+            out = self.without(problem, current, accepted, b)
+            if out is None:
                 continue
+            rest, pc, without = out
             moved = self.move(pc, without, rest, a, n, step, tests)
             if moved is not None and delta_bic(n, moved.fit.chi2, current.chi2,
                                                len(b.fitted)) < self.thresholds[-1]:
@@ -1077,12 +1082,10 @@ class _Diagnosis(_Placement):
         while len(accepted) > 1:
             worst = None
             for a in accepted:
-                rest = [x for x in accepted if x is not a]
-                try:
-                    pc = with_offsets(problem, current)
-                    without = fit(pc, terms_of(rest, current.theta), start=current.theta)
-                except REFIT_ERRORS:
+                out = self.without(problem, current, accepted, a)
+                if out is None:
                     continue
+                _, pc, without = out
                 dbic = delta_bic(n, without.chi2, current.chi2, len(a.fitted))
                 self._evidence[a.label] = dbic
                 # an effect whose values a later refit moved out of their physical
