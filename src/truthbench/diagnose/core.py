@@ -1135,6 +1135,8 @@ class _Diagnosis(_Placement):
             simpler = NESTED[a.effect][0]
             b = Candidate(simpler, dict(a.options), a.label.replace(a.effect, simpler, 1),
                           EFFECTS[simpler].diagnosis.fitted, a.node)
+            if any(x.label == b.label for x in accepted):
+                continue  # the first-order one is already found beside it
             rest = [b if x is a else x for x in accepted]
             start = {k: v for k, v in current.theta.items()
                      if not k.startswith(f"{a.label}.")}
