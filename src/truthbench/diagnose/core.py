@@ -1129,7 +1129,8 @@ class _Diagnosis(_Placement):
         for a in list(accepted):
             if a.effect not in NESTED:
                 continue
-            own = {**dict(a.pinned), **fitted_own(a, current.theta)}
+            fitted_values = fitted_own(a, current.theta)
+            own = {**dict(a.pinned), **fitted_values}
             if not {"a_s2", "b_s"} <= set(own):
                 continue
             simpler = NESTED[a.effect][0]
@@ -1151,10 +1152,9 @@ class _Diagnosis(_Placement):
             dbic = delta_bic(n, simple.chi2, current.chi2, len(a.fitted) - len(b.fitted))
             if not far and dbic >= threshold:
                 continue
-            values = a.effect_values(fitted_own(a, current.theta))
             self.tried.append(Tried(
                 step, a.label, a.effect, a.options, float("nan"), float(dbic),
-                fitted_own(a, current.theta), values,
+                fitted_values, a.effect_values(fitted_values),
                 f"reduced to {b.label}: " + ("its upper pole is beyond the band's resolution"
                                             if far else "its s^2 term is not significant")))
             self._reduced[a.label] = b.label

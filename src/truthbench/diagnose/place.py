@@ -141,7 +141,7 @@ class _Placement:
             return q.fit.chi2 if q is not None and q.physical else np.inf
 
         best, d = here, 0.5 * reach / N
-        while d > 0.04 / N:  # 1/2, 1/4, 1/8, 1/16 of an element (with reach 1)
+        for _ in range(3 + reach.bit_length()):  # down to a sixteenth of an element
             best = min((best - d, best, best + d), key=chi2)
             d /= 2
         d *= 2

@@ -18,8 +18,8 @@ from truthbench.effects.base import (
     register_effect,
 )
 from truthbench.errors import ModelError
-from truthbench.fe.assembly import direction_index, group_section
-from truthbench.fe.beam import element_matrices, shear_modulus
+from truthbench.fe.assembly import direction_index
+from truthbench.fe.beam import element_matrices
 
 
 def _scale(setup, name: str, group: str, rel: float) -> None:
@@ -209,12 +209,9 @@ def _element(plant, params, element: int, direction: str):
     its group's properties, its cross-section, its length (m) and its bending stiffness
     for the rotation ``direction`` (ry: bending in the x-z plane, ``I_y``; rz: ``I_z``;
     N m^2)."""
-    group = plant.element_groups()[element]
-    props = plant.group_properties(params)[group]
-    sec = group_section(props, group)
-    x = plant.node_x_m(params)
+    props, sec, h = plant.element_section(element, params)
     second = sec.second_moment_z_m4 if direction == "rz" else sec.second_moment_y_m4
-    return props, sec, float(x[element + 1] - x[element]), props["E_pa"] * second
+    return props, sec, h, props["E_pa"] * second
 
 
 def element_bending(plant, params, node: int, direction: str) -> tuple[float, float]:
@@ -278,10 +275,10 @@ def hinge_points(plant, params, element: int, xi: float, direction: str, loss: f
     G = np.array([[xi * h, -sign, 0.0, 0.0]]).T  # the moment at the point
     C = np.array([[flex / EI]])
     if scale > 0:  # and the shear force there
-        kGA = sec.shear_coefficient(props["nu"]) * shear_modulus(props["E_pa"], props["nu"]) \
-            * sec.area_m2
+        # the shear flexibility per length, scale / (kappa G A) = phi h^2 / (12 EI)
+        phi = plant.shear_parameter(element, "y" if direction == "rz" else "z", params)
         G = np.hstack([G, [[1.0], [0.0], [0.0], [0.0]]])
-        C = np.diag([flex / EI, flex * scale / kGA])
+        C = np.diag([flex / EI, flex * phi * h * h / (12.0 * EI)])
     KG = K @ G
     middle = C @ np.linalg.inv(np.eye(len(C)) + G.T @ KG @ C)  # (H + G^T K G)^-1
     mu, Q = np.linalg.eigh(0.5 * (middle + middle.T))

@@ -487,6 +487,15 @@ class Plant:
         a = math.floor(pos)
         return a, pos - a
 
+    def element_section(self, element: int, params: Mapping[str, float]):
+        """``(props, section, h)`` of one element at the resolved parameters
+        ``params``: its group's properties (:meth:`group_properties`), its
+        cross-section and its length, m."""
+        group = self.element_groups()[element]
+        props = self.group_properties(params)[group]
+        x = self.node_x_m(params)
+        return props, group_section(props, group), float(x[element + 1] - x[element])
+
     def shear_parameter(self, element: int, direction: str,
                         params: Mapping[str, float] | None = None) -> float:
         """The shear parameter ``phi = s 12 E I / (kappa G A h^2)`` of one element for
@@ -499,12 +508,8 @@ class Plant:
             return 0.0
         p = params if params and "E_pa" in params and "L_m" in params \
             else self.resolve(params)
-        group = self.element_groups()[element]
-        props = self.group_properties(p)[group]
-        sec = group_section(props, group)
+        props, sec, h = self.element_section(element, p)
         second = sec.second_moment_z_m4 if direction == "y" else sec.second_moment_y_m4
-        x = self.node_x_m(p)
-        h = float(x[element + 1] - x[element])
         E, nu = props["E_pa"], props["nu"]
         kGA = sec.shear_coefficient(nu) * shear_modulus(E, nu) * sec.area_m2
         return scale * 12.0 * E * second / (kGA * h * h)
@@ -584,7 +589,7 @@ class Plant:
             h = float(self.group_lengths_m(self._length_parameters(params))[a // per]) / per
         # the rotation DOF of this bending plane, and the sign of theta = sign * dw/dx
         rot, sign = (5, 1.0) if direction == "y" else (4, -1.0)
-        phi = self.shear_parameter(a, direction, params) if self.timoshenko else 0.0
+        phi = self.shear_parameter(a, direction, params)
         xi2 = xi * xi
         # the element's own transverse displacement field (interdependent interpolation:
         # the exact static field of the Timoshenko element, the Hermite cubic at phi = 0)
