@@ -271,19 +271,30 @@ def scan_extra_mode(problem: Problem, current: Fit, candidates_hz: np.ndarray):
     """
     best = None
     pieces = _pieces(problem, current)
+    w = 2 * np.pi * np.asarray(candidates_hz, float)
+    # the pole's denominator s^2 + 2 zeta w s + w^2 = re + j im, in real arithmetic
+    # (s = sigma + j omega), once per test: with b = W s^p / (re + j im), <b, r> =
+    # sum conj(s^p) (re + j im) / |.|^2 W r, and <b, b> = sum |s^p|^2 / |.|^2 W^2
+    lines = []
+    for t, _, _ in pieces:
+        s = 2j * np.pi * t.freq_hz + t.decay_rad_s
+        lines.append((s, (s.real ** 2 - s.imag ** 2)[:, None] + (w * w)[None, :]))
     for zeta in ZETAS:
         total = np.zeros(candidates_hz.size)
         per_out = None
-        for k, (t, r, W) in enumerate(pieces):
-            s = 2j * np.pi * t.freq_hz + t.decay_rad_s
+        for k, ((t, r, W), (s, re0)) in enumerate(zip(pieces, lines, strict=True)):
+            re = re0 + (2 * zeta * s.real)[:, None] * w[None, :]
+            im = (2 * s.imag)[:, None] * (s.real[:, None] + zeta * w[None, :])
+            inv = 1.0 / (re * re + im * im)  # (n_f, n_cand)
+            conj_g = np.empty(re.shape, complex)
+            conj_g.real, conj_g.imag = re * inv, im * inv
             drops = np.zeros((candidates_hz.size, len(t.sensors)))
             for p in {_POWERS[x.quantity] for x in t.sensors}:
-                g = mode_basis(s, candidates_hz, zeta, p)  # (n_f, n_cand)
                 rows = [o for o, x in enumerate(t.sensors) if _POWERS[x.quantity] == p]
-                # every transfer function of this power at once, with b = W g:
-                # <b, r> = g^H (W r) and <b, b> = |g|^2' W^2
-                num = g.conj().T @ (W[:, rows] * r[:, rows]).reshape(s.size, -1)
-                den = (np.abs(g) ** 2).T @ (W[:, rows] ** 2).reshape(s.size, -1)
+                sp = (s ** p)[:, None, None]
+                # every transfer function of this power at once
+                num = conj_g.T @ (sp.conj() * W[:, rows] * r[:, rows]).reshape(s.size, -1)
+                den = inv.T @ (np.abs(sp) ** 2 * W[:, rows] ** 2).reshape(s.size, -1)
                 d = np.abs(num) ** 2 / np.maximum(den, 1e-300)
                 drops[:, rows] = d.reshape(-1, len(rows), W.shape[2]).sum(axis=2)
             total += drops.sum(axis=1)
