@@ -308,7 +308,8 @@ def with_offsets(problem: Problem, current: Fit | None = None, *, terms=None,
 
 
 def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
-        start: Mapping[str, float] | None = None, quick: bool = False) -> Fit:
+        start: Mapping[str, float] | None = None, quick: bool = False,
+        estimator: bool = False) -> Fit:
     """Fit the declared parameters and every fitted parameter of ``terms``.
 
     Parameters
@@ -324,6 +325,11 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         Jacobian at the end (``jacobian`` and ``covariance`` are empty). The chi2 is
         then within a small fraction of the optimum's; the chosen candidate is refitted
         in full.
+    estimator : bool
+        The estimator's leakage computed at every parameter value tried instead of held
+        at ``problem.offsets`` (:meth:`Problem.predict`), for a parameter that moves an
+        under-resolved mode far: with the offset held, the fit stays near where it
+        starts. The fit is then evaluated with the offsets at its optimum.
 
     Raises
     ------
@@ -333,7 +339,7 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
     terms = tuple(terms)
     names = tuple(problem.declared) + _keys(terms)
     theta0 = {**problem.theta0(terms), **dict(start or {})}
-    predict = problem.predict(terms)
+    predict = problem.predict(terms, estimator=estimator)
     s = problem.settings
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -353,6 +359,8 @@ def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
         return Fit(terms, names, theta, problem.chi2(model), bool(converged),
                    res.n_iterations, empty, np.zeros(0), np.full((len(names),) * 2, np.nan),
                    model)
+    if estimator:
+        problem = with_offsets(problem, terms=terms, theta=theta)
     return evaluate(problem, terms, names, theta, converged, res.n_iterations)
 
 

@@ -51,7 +51,17 @@ matched delay."""
 
 GLOBAL_STRUCTURE = ("boundary", "element_physics", "sag")
 """Candidates that change the structure everywhere (and may move its sharpest modes by
-many of their widths): their line searches use the estimator's leakage at every point."""
+many of their widths): every one is line-searched, through the estimator's leakage at
+every point."""
+
+EXACT_LEAKAGE = ("boundary",)
+"""Candidates fitted with the estimator's leakage computed at every parameter value: a
+support's stiffness moves the suspension modes, a tenth of a line wide, by tens of
+percent, and with the leakage offset held from where the fit starts, the fit stays near
+its start (study seed 20261125, trial 2: a 1.83x stiffer suspension started at 1.35x
+ends at 1.36x). The line search's best point starts it. (Even so, the leakage's fine grid,
+an eighth of a line, samples a mode narrower than that coarsely, and the chi2 ripples
+along the stiffness: a start far from the optimum can stop in a ripple.)"""
 
 REFIT_ERRORS = (IdentifiabilityError, ModelError, ValueError, np.linalg.LinAlgError)
 
@@ -268,8 +278,10 @@ def screen(problem: Problem, current: Fit, cands, accepted, refs, step: int,
     strengths (:func:`~.screen.point_profiles`), at the nodes and at the element
     midpoints beside the best nodes (:func:`~.screen.beside_best`), joints and friction
     theirs over a grid of their parameters (:func:`~.screen.structural_profiles`); the
-    others the first-order (score) drop, and, for the ``per_effect`` best of each effect,
-    the drop along that step (:func:`line_search`). A candidate the model refuses is
+    others the first-order (score) drop, and, for the ``per_effect`` best of each effect
+    and every global one (:data:`GLOBAL_STRUCTURE`: all supports and each alone rank
+    differently at first order and exactly), the drop along that step
+    (:func:`line_search`). A candidate the model refuses is
     recorded in ``tried``.
     """
     out = []
@@ -306,7 +318,8 @@ def screen(problem: Problem, current: Fit, cands, accepted, refs, step: int,
     for s in out:
         c = s.candidate
         count[c.effect] = count.get(c.effect, 0) + 1
-        if count[c.effect] <= per_effect and c.label not in exact:
+        global_ = c.node is None and c.effect in GLOBAL_STRUCTURE
+        if (count[c.effect] <= per_effect or global_) and c.label not in exact:
             pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
             drop, guess = line_search(pc, current, accepted, c, s.drop, s.guess,
                                       c.scales(refs))
@@ -351,7 +364,7 @@ def refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
         # the estimator's leakage where the refit starts (the current model's is wrong
         # where the candidate moves a sharp mode by more than a line)
         pc = with_offsets(pc, terms=terms, theta={**pc.predictor(terms).theta0, **theta})
-        cf = fit(pc, terms, start=theta, quick=True)
+        cf = fit(pc, terms, start=theta, quick=True, estimator=c.effect in EXACT_LEAKAGE)
     except REFIT_ERRORS as exc:
         tried.append(Tried(step, c.label, c.effect, c.options, drop, status=refit_error(exc)))
         return None
@@ -387,7 +400,8 @@ def full_refit(problem: Problem, current: Fit, accepted, quick: Refit, refs, n, 
     """
     c = quick.candidate
     pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
-    full = fit(with_offsets(pc, quick.fit), quick.fit.terms, start=quick.fit.theta)
+    full = fit(with_offsets(pc, quick.fit), quick.fit.terms, start=quick.fit.theta,
+               estimator=c.effect in EXACT_LEAKAGE)
     if c.levels is not None:  # friction: the levels with its own damping in
         c, full = relevel(with_offsets(pc, full), c, accepted, full, tests)
     pc = with_offsets(pc, full)
