@@ -189,7 +189,7 @@ def test_a_five_times_stiffer_suspension_is_found_as_boundary(tube):
 def test_a_half_again_stiffer_suspension_is_found_as_boundary_not_a_spring():
     """A study trial (``campaigns/diagnose_study.toml``, seed 20261126, trial 32): both
     supports 1.51 times stiffer, on a truth of four times the mesh, Hann-averaged at
-    1/16 and 1/8 Hz lines. Its suspension modes, a tenth of a line wide, move by a
+    1 and 0.5 Hz lines. Its suspension modes, a tenth of a line wide, move by a
     fifth and are seen through the estimator's leakage. Before, the all-support
     ``boundary`` ranked third of the three supports' candidates at first order and was
     not line-searched, and a refit with the leakage held from its start stayed near it:
