@@ -63,6 +63,11 @@ ends at 1.36x). The line search's best point starts it. (Even so, the leakage's 
 an eighth of a line, samples a mode narrower than that coarsely, and the chi2 ripples
 along the stiffness: a start far from the optimum can stop in a ripple.)"""
 
+def is_global(c: Candidate) -> bool:
+    """Whether ``c`` is one of the :data:`GLOBAL_STRUCTURE` candidates (not located)."""
+    return c.node is None and c.effect in GLOBAL_STRUCTURE
+
+
 REFIT_ERRORS = (IdentifiabilityError, ModelError, ValueError, np.linalg.LinAlgError)
 
 
@@ -247,7 +252,7 @@ def line_search(problem, current, accepted, c, drop, guess, sizes):
     # (a suspension mode a tenth of a line wide): its points are judged through the
     # estimator's leakage at each, not the current model's held leakage
     predict = problem.predict(terms_of(accepted, current.theta) + c.terms(),
-                              estimator=c.node is None and c.effect in GLOBAL_STRUCTURE)
+                              estimator=is_global(c))
     best = (drop, guess)
     low = np.array([-np.inf if p.minimum is None else p.minimum for p in c.fitted])
     high = np.array([np.inf if p.maximum is None else p.maximum for p in c.fitted])
@@ -318,8 +323,7 @@ def screen(problem: Problem, current: Fit, cands, accepted, refs, step: int,
     for s in out:
         c = s.candidate
         count[c.effect] = count.get(c.effect, 0) + 1
-        global_ = c.node is None and c.effect in GLOBAL_STRUCTURE
-        if (count[c.effect] <= per_effect or global_) and c.label not in exact:
+        if (count[c.effect] <= per_effect or is_global(c)) and c.label not in exact:
             pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
             drop, guess = line_search(pc, current, accepted, c, s.drop, s.guess,
                                       c.scales(refs))
@@ -360,11 +364,13 @@ def refit(problem, current, accepted, c, drop, guess, refs, n, step, tried, *,
     pc = replace(problem, scales={**problem.scales, **scales})
     theta = current.theta if declared_start is None else declared_start
     terms = terms_of(accepted, current.theta) + c.terms(start=start)
+    exact = c.effect in EXACT_LEAKAGE
     try:
-        # the estimator's leakage where the refit starts (the current model's is wrong
-        # where the candidate moves a sharp mode by more than a line)
-        pc = with_offsets(pc, terms=terms, theta={**pc.predictor(terms).theta0, **theta})
-        cf = fit(pc, terms, start=theta, quick=True, estimator=c.effect in EXACT_LEAKAGE)
+        if not exact:
+            # the estimator's leakage where the refit starts (the current model's is
+            # wrong where the candidate moves a sharp mode by more than a line)
+            pc = with_offsets(pc, terms=terms, theta={**pc.predictor(terms).theta0, **theta})
+        cf = fit(pc, terms, start=theta, quick=True, estimator=exact)
     except REFIT_ERRORS as exc:
         tried.append(Tried(step, c.label, c.effect, c.options, drop, status=refit_error(exc)))
         return None
@@ -400,8 +406,9 @@ def full_refit(problem: Problem, current: Fit, accepted, quick: Refit, refs, n, 
     """
     c = quick.candidate
     pc = replace(problem, scales={**problem.scales, **c.scales(refs)})
-    full = fit(with_offsets(pc, quick.fit), quick.fit.terms, start=quick.fit.theta,
-               estimator=c.effect in EXACT_LEAKAGE)
+    exact = c.effect in EXACT_LEAKAGE  # the leakage at every value: no held offsets
+    full = fit(pc if exact else with_offsets(pc, quick.fit), quick.fit.terms,
+               start=quick.fit.theta, estimator=exact)
     if c.levels is not None:  # friction: the levels with its own damping in
         c, full = relevel(with_offsets(pc, full), c, accepted, full, tests)
     pc = with_offsets(pc, full)
@@ -433,6 +440,6 @@ def relevel(problem, c: Candidate, accepted, fit_, tests, passes: int = 2):
 
 
 __all__ = ["BOUND_SLACK", "Refit", "Screened", "Tried", "adapted", "bounds_ok", "crossed",
-           "delta_bic", "partly_crossed",
+           "delta_bic", "is_global", "partly_crossed",
            "full_refit", "line_search", "refit", "relevel", "screen", "shortlist",
            "signature_start"]
