@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from truthbench.diagnose.verdict import far_pole_hz, parsimonious
+from truthbench.diagnose.verdict import TIE, ambiguous, far_pole_hz, parsimonious, ranked
 
 
 @pytest.mark.parametrize("a, b", [(1e-8, 1e-3), (2.5e-9, 1e-4), (1e-10, 2.1e-5)])
@@ -65,3 +65,27 @@ def test_of_explanations_within_the_margin_the_one_with_fewer_parameters_leads()
     assert _choose([joint, mass], joint, 100.0) is mass
     assert _choose([joint, mass], joint, 50.0) is joint
     assert _choose([joint, mass], mass, 100.0) is mass
+
+
+def test_fits_tied_to_round_off_are_ranked_by_name_not_by_their_last_bits():
+    """A first-order lag in every sensor and one in the only shaker of each test make the
+    same FRFs. In study trial 20261125/23 (a delay already in the model) their separate
+    fits gave delta BICs 2.9e-6 apart, and the sensor lag was reported: the arithmetic's
+    last bits chose. Tied within TIE they rank by name, whichever came out ahead, and the
+    other is the runner-up; a real difference, however small against the margin, still
+    ranks by delta BIC."""
+    lag_a = _refit("actuator_dynamics", 22406.66281801728, tau_s=2e-4)
+    lag_s = _refit("sensor_lag", 22406.66282094672, tau_s=2e-4)
+    assert lag_s.delta_bic > lag_a.delta_bic
+    assert lag_s.delta_bic - lag_a.delta_bic < TIE * lag_a.delta_bic
+    resonance = _refit("actuator_resonance", 22407.0, a_s2=1e-9, b_s=2e-4)
+    for finals in ([lag_a, lag_s], [lag_s, lag_a]):
+        assert ranked(finals) == [lag_a, lag_s]
+        assert ambiguous(finals, lag_a, 10.0) == [lag_s]
+        # a second-order fit within the margin gives way to the tied first-order ones:
+        # to the first by name, whatever their order or last bits
+        assert _choose([resonance, *finals], resonance, 10.0) is lag_a
+    mass = _refit("added_mass", 500.0, mass_kg=0.01)
+    spring = _refit("grounded_spring", 500.0 * (1 + 2 * TIE), stiffness_n_m=800.0)
+    assert ranked([mass, spring]) == [spring, mass]
+    assert ranked([]) == []

@@ -108,6 +108,7 @@ from truthbench.diagnose.verdict import (
     far_pole_hz,
     measurements,
     parsimonious,
+    ranked,
 )
 from truthbench.effects import EFFECTS
 from truthbench.errors import IdentifiabilityError, ModelError
@@ -838,8 +839,8 @@ class _Diagnosis(_Placement):
                                          declared_start=adapted(current.theta, sc.adapt))
         # the best located refit's neighbours (a first-order score can rank a mirror
         # image or a neighbour first for a large change)
-        best = max((r for r in results.values() if r and r.candidate.node is not None),
-                   key=lambda r: r.delta_bic, default=None)
+        best = next(iter(ranked(r for r in results.values()
+                                if r and r.candidate.node is not None)), None)
         if best is not None:
             b = best.candidate
             for sc in screened:
@@ -855,8 +856,8 @@ class _Diagnosis(_Placement):
                                 sc.candidate.options, sc.drop) for sc in screened
                           if sc.candidate.label not in labels and sc.candidate.label
                           not in {t.label for t in self.tried if t.step == step})
-        ok = sorted((r for r in results.values() if r and r.physical and
-                     r.delta_bic > threshold), key=lambda r: -r.delta_bic)
+        ok = ranked(r for r in results.values() if r and r.physical and
+                    r.delta_bic > threshold)
         # the best two, and the best location of the next best effects, completed, each
         # with the estimator's leakage at its own model, compared on that chi2
         short = list(ok[:2])
@@ -892,7 +893,7 @@ class _Diagnosis(_Placement):
         finals = [self.refine_position(problem, current, accepted, r, n, step, tests)
                   if r.candidate.node is not None and r.delta_bic >= 0.5 * best_bic else r
                   for r in finals]
-        best = max(finals, key=lambda r: r.delta_bic)
+        best = ranked(finals)[0]
         return best, finals, self.with_form(problem, current, accepted, cands, finals, best,
                                             n, step, threshold, tests)
 
@@ -917,9 +918,8 @@ class _Diagnosis(_Placement):
         if form is None or any(a.effect in MODEL_FORM for a in accepted):
             return None
         b = best.candidate
-        located = sorted((r for r in finals if r.candidate.node is not None and not (
-            r.candidate.effect == b.effect and abs(r.candidate.node - b.node) <= 1)),
-            key=lambda r: -r.delta_bic)[:2]
+        located = ranked(r for r in finals if r.candidate.node is not None and not (
+            r.candidate.effect == b.effect and abs(r.candidate.node - b.node) <= 1))[:2]
         pairs = []
         for r in located:
             c = r.candidate

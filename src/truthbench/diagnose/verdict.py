@@ -15,7 +15,7 @@ measured channels already offer.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -200,13 +200,37 @@ def measurements(problem: Problem, fit_a: Fit, fit_b: Fit, labels: tuple[str, st
     return tuple(out)
 
 
+#: Delta BICs closer than this fraction of their size (or of 1) are one value. Models the
+#: data cannot tell apart (a first-order lag in every sensor or in every shaker makes the
+#: same FRFs) are fitted separately, and their delta BICs then differ by the fits'
+#: round-off (1e-10 to 1e-8 of it in the study): their order is the effects' names', not
+#: the arithmetic's last bits, which a processor's vector width can change.
+TIE = 1e-6
+
+
+def ranked(results: Iterable) -> list:
+    """``results`` (anything with ``delta_bic`` and ``candidate``) best first; those tied
+    within :data:`TIE` in the alphabetical order of their effects' names, then labels
+    (the order of the default catalogue)."""
+    out = sorted(results, key=lambda r: -r.delta_bic)
+    i = 0
+    while i < len(out):
+        top = out[i].delta_bic
+        j = i + 1
+        while j < len(out) and top - out[j].delta_bic <= TIE * max(1.0, abs(top)):
+            j += 1
+        out[i:j] = sorted(out[i:j], key=lambda r: (r.candidate.effect, r.candidate.label))
+        i = j
+    return out
+
+
 def ambiguous(finals: Sequence, chosen, margin: float, *, nodes_apart: int = 2) -> list:
     """The runners-up that explain the data within ``margin`` of delta BIC of the chosen
     one, best first: the best of each other effect, and of the same effect at a location
     more than ``nodes_apart`` nodes away (a neighbour is the same finding, not an
     alternative). Empty when the chosen one stands alone."""
     out = []
-    for r in sorted(finals, key=lambda r: -r.delta_bic):
+    for r in ranked(finals):
         c = r.candidate
         if c.label == chosen.candidate.label or not r.physical:
             continue
@@ -272,5 +296,5 @@ def size(c) -> int:
     return len(c.fitted) + len(c.pinned)
 
 
-__all__ = ["FAR_POLE", "NESTED", "Alternative", "Measurement", "ambiguous", "far_pole_hz",
-           "measurements", "parsimonious"]
+__all__ = ["FAR_POLE", "NESTED", "TIE", "Alternative", "Measurement", "ambiguous",
+           "far_pole_hz", "measurements", "parsimonious", "ranked"]
