@@ -78,13 +78,13 @@ def test_fits_tied_to_round_off_are_ranked_by_name_not_by_their_last_bits():
     lag_s = _refit("sensor_lag", 22406.66282094672, tau_s=2e-4)
     assert lag_s.delta_bic > lag_a.delta_bic
     assert lag_s.delta_bic - lag_a.delta_bic < TIE * lag_a.delta_bic
-    resonance = _refit("actuator_resonance", 22407.0, a_s2=1e-9, b_s=2e-4)
+    joint = _refit("joint", 22407.0, stiffness_loss=0.1, damping_n_m_s_rad=0.0)
     for finals in ([lag_a, lag_s], [lag_s, lag_a]):
         assert ranked(finals) == [lag_a, lag_s]
         assert ambiguous(finals, lag_a, 10.0) == [lag_s]
-        # a second-order fit within the margin gives way to the tied first-order ones:
-        # to the first by name, whatever their order or last bits
-        assert _choose([resonance, *finals], resonance, 10.0) is lag_a
+        # a two-parameter fit within the margin gives way to the tied one-parameter
+        # ones: to the first by name, whatever their order or last bits
+        assert _choose([joint, *finals], joint, 10.0) is lag_a
     mass = _refit("added_mass", 500.0, mass_kg=0.01)
     spring = _refit("grounded_spring", 500.0 * (1 + 2 * TIE), stiffness_n_m=800.0)
     assert ranked([mass, spring]) == [spring, mass]

@@ -59,9 +59,10 @@ EXACT_LEAKAGE = ("boundary",)
 support's stiffness moves the suspension modes, a tenth of a line wide, by tens of
 percent, and with the leakage offset held from where the fit starts, the fit stays near
 its start (study seed 20261125, trial 2: a 1.83x stiffer suspension started at 1.35x
-ends at 1.36x). The line search's best point starts it. (Even so, the leakage's fine grid,
-an eighth of a line, samples a mode narrower than that coarsely, and the chi2 ripples
-along the stiffness: a start far from the optimum can stop in a ripple.)"""
+ends at 1.36x). The line search's best point starts it. (Even so, the chi2 ripples along
+the stiffness: a mode narrower than the force's line spacing is seen only at those
+lines, and a start far from the optimum can stop in a ripple.)"""
+
 
 def is_global(c: Candidate) -> bool:
     """Whether ``c`` is one of the :data:`GLOBAL_STRUCTURE` candidates (not located)."""

@@ -283,12 +283,15 @@ def parsimonious(finals: Sequence, chosen, margin: float, f_max_hz: float):
             > FAR_POLE * f_max_hz
         close = [r for r in simpler
                  if unresolved or chosen.delta_bic - r.delta_bic <= margin]
-        chosen = max(close, key=lambda r: r.delta_bic, default=chosen)
+        chosen = ranked(close)[0] if close else chosen
     # of any explanations the data cannot tell apart, one with fewer parameters (those
     # held at a bound counted: the effect's own count) is stated first
     fewer = [r for r in finals if r.physical and size(r.candidate) < size(chosen.candidate)
              and chosen.delta_bic - r.delta_bic <= margin]
-    return max(fewer, key=lambda r: (-size(r.candidate), r.delta_bic), default=chosen)
+    if not fewer:
+        return chosen
+    least = min(size(r.candidate) for r in fewer)
+    return ranked(r for r in fewer if size(r.candidate) == least)[0]
 
 
 def size(c) -> int:
