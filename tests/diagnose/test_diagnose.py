@@ -24,12 +24,25 @@ def _diagnose(spec, data, **kw):
 
 
 def test_clean_data_find_nothing(tube):
-    diag = _diagnose(tube, measured(tube), candidates=SUBSET)
-    assert diag.found == ()
+    data = measured(tube)
+    diag = _diagnose(tube, data, candidates=SUBSET)
+    assert diag.found == () and diag.mounting is None
     assert diag.frf_error_after == diag.frf_error_before
     # the baseline is at the noise level: the reduced chi2 is of order 1 (coherence
     # estimated from 4 averages is biased high, so sigma is a little small)
     assert 0.5 < diag.before.reduced_chi2 < 4
+    # modelled in, the mounting (one amplitude per transfer function) finds nothing
+    # either where the channels are on the axis: it takes a sliver of the chi2 (its roll
+    # column, a flat accelerance over the band, also takes a little of the low lines'
+    # leakage: 29 in noise units here, where noise alone gives its 8 amplitudes about
+    # 9 +- 4), and the offsets it implies are under half a real mounting's (the
+    # other-form test: 3 mm each, k = 9e-6 m^2)
+    mounted = _diagnose(tube, data, candidates=SUBSET, mounting=True)
+    assert mounted.found == ()
+    m = mounted.mounting
+    assert len(m.paths) == sum(len(t.sensors) * len(t.actuators) for t in diag.tests)
+    assert 0 <= m.drop < 0.005 * m.n
+    assert max(abs(p[3]) for p in m.paths) < 4.5e-6
 
 
 def test_a_complex_baseline_that_cannot_be_fitted_leaves_the_magnitude_fit(tube,

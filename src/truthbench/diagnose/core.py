@@ -72,8 +72,10 @@ from truthbench.diagnose.fit import (
     fit_magnitude,
     refit_error,
     residual_lines,
+    with_mounting,
     with_offsets,
 )
+from truthbench.diagnose.mounting import mounting_check
 from truthbench.diagnose.place import _Placement
 from truthbench.diagnose.residual import ModeResidual, Residual, mpc, residual_views
 from truthbench.diagnose.screen import POINT_EFFECTS
@@ -420,6 +422,7 @@ class _Diagnosis(_Placement):
         self.tried: list[Tried] = []
         self.thresholds: list[float] = []
         self.extra_poles: tuple[tuple[float, float], ...] = ()
+        self.structural: dict | None = None  # the latest magnitude fit (:meth:`baseline`)
         self._evidence: dict[str, float] = {}
         self._reduced: dict[str, str] = {}  # second-order label -> its first-order one
 
@@ -451,10 +454,17 @@ class _Diagnosis(_Placement):
         scales = {k: refs["time"] for k in self.declared if k == "delay_s"}
         for a in accepted:
             scales.update(a.scales(refs))
-        return Problem(model_plant, dict(self.nominal), ptests, values, weights, self.declared,
-                       scales, None,
-                       {"max_iterations": s.max_iterations, "tolerance": s.tolerance},
-                       extra)
+        problem = Problem(model_plant, dict(self.nominal), ptests, values, weights,
+                          self.declared, scales, None,
+                          {"max_iterations": s.max_iterations, "tolerance": s.tolerance},
+                          extra)
+        if not s.mounting:
+            return problem
+        # the mounting's columns at the latest magnitude fit (refreshed with the
+        # estimator's offsets at every fit)
+        hint = dict(self.structural or {})
+        terms = terms_of(accepted, hint)
+        return with_mounting(problem, terms, {**problem.theta0(terms), **hint})
 
     def baseline(self, problem: Problem, structural=None) -> tuple[Problem, Fit, Fit]:
         """The declared parameters fitted: (problem with the baseline's leakage offsets,
@@ -764,7 +774,8 @@ class _Diagnosis(_Placement):
                          tests, problem.plant, dict(self.nominal), self.declared, problem.n,
                          float(n), tuple(self.thresholds), mesh=mesh, missing=tuple(missing),
                          dropped=tuple(dropped), measurements=measured,
-                         not_tried=not_tried(problem.plant, tests, s.candidates))
+                         not_tried=not_tried(problem.plant, tests, s.candidates),
+                         mounting=mounting_check(problem, current, self.noise))
 
     def step(self, problem, current, cands, accepted, step, n, signature, tests):
         """One forward step: screen, refit, choose. Returns (the chosen full refit or

@@ -11,7 +11,9 @@ The model
 FRF is what the data's estimator would have measured: the exact FRF at ``s = sigma_w +
 j omega`` for exponentially windowed data, plus, for averaged estimates whose window
 and segments are known, the leakage offset ``E[H1] - H`` computed at a reference fit
-and held during a fit (:class:`Problem.offsets`).
+and held during a fit (:class:`Problem.offsets`). Modes the model lacks and the
+channels' off-axis mounting are eliminated from the residual (:class:`ExtraModes`); the
+mounting's columns are the model's own FRFs, held and refreshed with the offsets.
 
 Screening (:func:`score`) is the Lagrange-multiplier test of adding a candidate to the
 current fit: the candidate's sensitivity columns, projected off the current fit's
@@ -29,6 +31,7 @@ from functools import cached_property
 
 import numpy as np
 
+from truthbench.diagnose.mounting import mounting_columns
 from truthbench.errors import IdentifiabilityError, ModelError
 from truthbench.plants.base import Plant
 from truthbench.update.finite_difference import finite_difference_update, sensitivity_matrix
@@ -70,56 +73,82 @@ def mode_basis(s: np.ndarray, freq_hz, zeta: float, power: int) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class ExtraModes:
-    """Modes the model lacks, modelled in the comparison with a free complex residue in
-    every transfer function (variable projection: the residues are eliminated).
+    """What the comparison models in by elimination: modes the model lacks, each with a
+    free complex residue in every transfer function, and the channels' off-axis
+    mounting (:mod:`.mounting`), a real amplitude per path and transfer function
+    (variable projection: the residues and amplitudes are eliminated).
 
     The weighted residual ``w (D - M)`` of each transfer function is replaced by its
-    part orthogonal to the modes' weighted bases ``w s^p / (s^2 + 2 zeta w_k s +
-    w_k^2)``, which is the residual with the best residues added to the model.
+    part orthogonal, in the real inner product ``Re(a^H b)``, to the span of its
+    weighted columns: ``w s^p / (s^2 + 2 zeta w_k s + w_k^2)`` and ``j`` times it for
+    each mode (a complex residue is two real amplitudes), and ``w`` times each mounting
+    column. That is the residual with the best residues and amplitudes added to the
+    model.
 
     Attributes
     ----------
     poles : tuple of (float, float)
         Frequency (Hz) and damping ratio of each mode.
     bases : tuple of ndarray
-        Per test, orthonormal weighted bases, shape (n_lines, n_out, n_in, n_poles).
+        Per test, weighted bases orthonormal in the real inner product, shape
+        (n_lines, n_out, n_in, n_columns); a column the others span is zero.
+    mounted : bool
+        The mounting's columns are among them.
     """
 
     poles: tuple[tuple[float, float], ...]
     bases: tuple[np.ndarray, ...]
+    mounted: bool = False
 
     @classmethod
-    def build(cls, poles, tests, weights: np.ndarray) -> ExtraModes:
-        """The bases of ``poles`` on the lines and channels of ``tests`` with the
-        data's ``weights`` (raveled as the problem's)."""
+    def build(cls, poles, tests, weights: np.ndarray, mounting=None) -> ExtraModes:
+        """The bases of ``poles`` (and of the ``mounting`` columns, per test shape
+        (n_lines, n_out, n_in, k), when given) on the lines and channels of ``tests``
+        with the data's ``weights`` (raveled as the problem's)."""
         bases, start = [], 0
-        for t in tests:
+        for j, t in enumerate(tests):
             shape = (t.freq_hz.size, len(t.sensors), len(t.actuators))
             W = weights[start:start + int(np.prod(shape))].reshape(shape)
             start += int(np.prod(shape))
             s = 2j * np.pi * t.freq_hz + t.decay_rad_s
-            Q = np.zeros(shape + (len(poles),), dtype=complex)
+            extra = 0 if mounting is None else mounting[j].shape[3]
+            Q = np.zeros(shape + (2 * len(poles) + extra,), dtype=complex)
             for o, x in enumerate(t.sensors):
                 g = np.column_stack([mode_basis(s, f, z, _POWERS[x.quantity])[:, 0]
-                                     for f, z in poles])
+                                     for f, z in poles]) if poles else np.zeros((s.size, 0))
                 for i in range(shape[2]):
-                    Q[:, o, i, :], _ = np.linalg.qr(W[:, o, i, None] * g)
+                    cols = [g, 1j * g]
+                    if extra:
+                        cols.append(mounting[j][:, o, i, :])
+                    Q[:, o, i, :] = _real_orthonormal(W[:, o, i, None] * np.hstack(cols))
             bases.append(Q)
-        return cls(tuple(poles), tuple(bases))
+        return cls(tuple(poles), tuple(bases), mounting is not None)
 
     def project(self, r: np.ndarray) -> np.ndarray:
         """The part of weighted residuals (raveled as the problem's data, shape (N,) or
-        (G, N)) that the modes' residues take up."""
+        (G, N)) that the residues and amplitudes take up."""
         out = np.zeros_like(r)
         start = 0
         for Q in self.bases:
             size = int(np.prod(Q.shape[:3]))
             part = r[..., start:start + size].reshape(r.shape[:-1] + Q.shape[:3])
-            coef = np.einsum("foik,...foi->...oik", Q.conj(), part)
+            coef = np.einsum("foik,...foi->...oik", Q.conj(), part).real
             out[..., start:start + size] = np.einsum("foik,...oik->...foi", Q, coef
                                                      ).reshape(r.shape[:-1] + (size,))
             start += size
         return out
+
+
+def _real_orthonormal(A: np.ndarray, rcond: float = 1e-10) -> np.ndarray:
+    """Columns orthonormal in ``Re(a^H b)`` spanning the complex columns of ``A`` (shape
+    (n, k)) over the reals; columns within ``rcond`` of the others' span become zero."""
+    n, k = A.shape
+    if k == 0:
+        return np.zeros((n, 0), complex)
+    U, S, _ = np.linalg.svd(np.vstack([A.real, A.imag]), full_matrices=False)
+    keep = S > rcond * max(S[0], 1e-300)
+    U[:, ~keep] = 0.0
+    return U[:n] + 1j * U[n:]
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,7 +174,8 @@ class Problem:
     offsets : ndarray, complex, shape (N,), optional
         The estimator's leakage offset ``E[H1] - H`` at a reference fit.
     extra : ExtraModes, optional
-        Modes the model lacks, modelled in with free residues.
+        What the comparison eliminates: modes the model lacks (free residues) and the
+        channels' off-axis mounting (a real amplitude per transfer function).
     settings : dict
         ``max_iterations``, ``tolerance``, ``relative_step``.
     """
@@ -207,9 +237,10 @@ class Problem:
 
     def predict(self, terms: Sequence[EffectTerm] = (), *, estimator: bool = False):
         """``theta -> model vector`` (exact FRF plus the held leakage offset, and the
-        modes the model lacks with their best residues). With ``estimator`` the
-        estimator's leakage is computed at ``theta`` itself instead of held (exact where
-        a parameter moves an under-resolved mode far; about fifteen times the cost)."""
+        modes the model lacks and the mounting with their best residues and
+        amplitudes). With ``estimator`` the estimator's leakage is computed at ``theta``
+        itself instead of held (exact where a parameter moves an under-resolved mode
+        far; about fifteen times the cost)."""
         pred = self.predictor(terms)
         if estimator and any(t.kernel is not None for t in self.tests):
             def base(theta):
@@ -294,17 +325,34 @@ class Fit:
 
 def with_offsets(problem: Problem, current: Fit | None = None, *, terms=None,
                  theta=None) -> Problem:
-    """The problem with the estimator's leakage offset ``E[H1] - H`` at ``current``'s
-    parameters and effects (or at ``terms`` and ``theta``); unchanged when no test
-    states its estimator."""
-    if not any(t.kernel is not None for t in problem.tests):
+    """The problem with its held parts at ``current``'s parameters and effects (or at
+    ``terms`` and ``theta``): the estimator's leakage offset ``E[H1] - H`` (when a test
+    states its estimator) and the mounting's columns (when they are modelled in);
+    unchanged when it has neither."""
+    mounted = problem.extra is not None and problem.extra.mounted
+    kernel = any(t.kernel is not None for t in problem.tests)
+    if not (mounted or kernel):
         return problem
     terms = current.terms if terms is None else tuple(terms)
     theta = current.theta if theta is None else theta
+    if mounted:
+        problem = with_mounting(problem, terms, theta)
+    if not kernel:
+        return problem
     pred = problem.predictor(terms)
     exact = pred.predict_vector(theta)
     seen = pred.predict_vector(theta, estimator=True)
     return replace(problem, offsets=seen - exact)
+
+
+def with_mounting(problem: Problem, terms: Sequence[EffectTerm],
+                  theta: Mapping[str, float]) -> Problem:
+    """The problem with the channels' off-axis mounting modelled in (:mod:`.mounting`),
+    its columns from the model with ``terms`` at ``theta``."""
+    columns = mounting_columns(problem.predictor(terms), theta)
+    poles = () if problem.extra is None else problem.extra.poles
+    return replace(problem, extra=ExtraModes.build(poles, problem.tests, problem.weights,
+                                                   columns))
 
 
 def fit(problem: Problem, terms: Sequence[EffectTerm] = (), *,
@@ -600,4 +648,4 @@ def refit_error(exc: Exception) -> str:
 
 __all__ = ["APPENDED_PARAMETERS", "ExtraModes", "Fit", "Problem", "candidate_columns", "covariance",
            "evaluate", "fit", "fit_magnitude", "mode_basis", "refit_error", "score", "stack",
-           "with_offsets"]
+           "with_mounting", "with_offsets"]

@@ -11,6 +11,7 @@ import numpy as np
 from truthbench.diagnose.adequacy import MeshCheck, MissingMode
 from truthbench.diagnose.core import DiagnoseSettings, Found, Tried
 from truthbench.diagnose.fit import Fit
+from truthbench.diagnose.mounting import MountingCheck
 from truthbench.diagnose.residual import Residual
 from truthbench.diagnose.verdict import Measurement
 from truthbench.plants.base import Plant
@@ -72,6 +73,8 @@ class Diagnosis:
     not_tried : tuple of (str, str)
         Effects asked for that could not be tried at all here, each with the reason
         (friction without the tests' input levels, a boundary without a suspension).
+    mounting : MountingCheck or None
+        What the channels' off-axis mounting, modelled in, took up (None: not modelled).
     """
 
     found: tuple[Found, ...]
@@ -93,6 +96,7 @@ class Diagnosis:
     dropped: tuple[Found, ...] = ()
     measurements: tuple[Measurement, ...] = ()
     not_tried: tuple[tuple[str, str], ...] = ()
+    mounting: MountingCheck | None = None
 
     UNCERTAINTY_CHI2 = 2.0
     """The reduced chi2 of the final model (in units of the data's noise) below which
@@ -169,6 +173,8 @@ class Diagnosis:
                 "tolerance": self.mesh.tolerance, "adequate": self.mesh.adequate,
                 "used": self.mesh.used, "summary": self.mesh.summary()},
             "missing_modes": [{**asdict(m), "summary": m.summary()} for m in self.missing],
+            "mounting": None if self.mounting is None else {
+                **asdict(self.mounting), "summary": self.mounting.summary()},
             "dropped": [{"effect": f.effect, "options": f.options,
                          "parameters": f.parameters, "delta_bic": f.delta_bic}
                         for f in self.dropped],
@@ -238,6 +244,9 @@ class Diagnosis:
                              "ok": self.mesh.adequate})
             rows += [{"check": "mode the model lacks", "finding": m.summary(), "ok": False}
                      for m in self.missing]
+            if self.mounting is not None:
+                rows.append({"check": "mounting", "finding": self.mounting.summary(),
+                             "ok": True})
             return pd.DataFrame(rows, columns=["check", "finding", "ok"])
         if table == "measurements":
             return pd.DataFrame([{**asdict(m), "summary": m.summary()}

@@ -49,6 +49,11 @@ class DiagnoseSettings(Configurable):
     identify_modes: bool = setting(True, "identify the data's modes (pLSCF) for the "
                                    "paired-mode views")
     check_modes: bool = setting(True, "look for modes the model lacks")
+    mounting: bool = setting(False, "model the channels' off-axis mounting in the "
+                             "comparison: every translational sensor and shaker off the "
+                             "beam's axis, reading and driving its torsion, roll and "
+                             "bending across (one real amplitude per path and transfer "
+                             "function)")
     noise_margin: float = setting(0.1, "no effect is sought once the residual's variance "
                                   "is within this fraction of the noise's", low=0, high=1)
     excess_share: float = setting(0.25, "share of the residual's excess over the noise an "

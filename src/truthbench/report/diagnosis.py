@@ -56,6 +56,8 @@ def diagnosis_markdown(diag, figures: dict[str, str] | None = None,
     else:
         out += ["- **Modes**: every mode identified in the data has a model mode its "
                 "channels see."]
+    if diag.mounting is not None:
+        out += [f"- **Mounting**: {diag.mounting.summary()}."]
     out += [f"- **Not tried**: {effect}: {reason}." for effect, reason in diag.not_tried]
     out += ["", "## Verdict", ""]
     holds = diag.uncertainty_holds
