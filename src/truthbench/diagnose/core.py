@@ -7,7 +7,8 @@
    for these data (else it is refined, or said to be too coarse), and does the data show
    a mode the model cannot show at these channels (named, and its lines left out)?
    With ``mounting``, the channels' reading of the beam's torsion and roll through
-   their offsets from the axis is modelled in from the start (:mod:`.mounting`).
+   their offsets from the axis is modelled in from the start
+   (:mod:`truthbench.diagnose.mounting`).
 3. **Candidates.** Every effect of the registry that declares a diagnosis form, at every
    location it can have (:mod:`.candidates`), is screened against the current fit
    (:func:`~.search.screen`); the best, and the best location of every other effect

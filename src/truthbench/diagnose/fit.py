@@ -75,8 +75,9 @@ def mode_basis(s: np.ndarray, freq_hz, zeta: float, power: int) -> np.ndarray:
 class ExtraModes:
     """What the comparison models in by elimination: modes the model lacks, each with a
     free complex residue in every transfer function, and the channels' off-axis
-    mounting (:mod:`.mounting`), a real amplitude per path and transfer function
-    (variable projection: the residues and amplitudes are eliminated).
+    mounting (:mod:`truthbench.diagnose.mounting`), a real amplitude per path and
+    transfer function (variable projection: the residues and amplitudes are
+    eliminated).
 
     The weighted residual ``w (D - M)`` of each transfer function is replaced by its
     part orthogonal, in the real inner product ``Re(a^H b)``, to the span of its
@@ -347,8 +348,9 @@ def with_offsets(problem: Problem, current: Fit | None = None, *, terms=None,
 
 def with_mounting(problem: Problem, terms: Sequence[EffectTerm],
                   theta: Mapping[str, float]) -> Problem:
-    """The problem with the channels' off-axis mounting modelled in (:mod:`.mounting`),
-    its columns from the model with ``terms`` at ``theta``."""
+    """The problem with the channels' off-axis mounting modelled in
+    (:mod:`truthbench.diagnose.mounting`), its columns from the model with ``terms`` at
+    ``theta``."""
     columns = mounting_columns(problem.predictor(terms), theta)
     poles = () if problem.extra is None else problem.extra.poles
     return replace(problem, extra=ExtraModes.build(poles, problem.tests, problem.weights,
