@@ -71,6 +71,14 @@ def mode_basis(s: np.ndarray, freq_hz, zeta: float, power: int) -> np.ndarray:
     return g * (s[:, None] ** power)
 
 
+def pole_columns(s: np.ndarray, poles, power: int) -> np.ndarray:
+    """:func:`mode_basis` of each ``(freq_hz, zeta)`` of ``poles`` with its own damping:
+    shape (n_lines, n_poles)."""
+    if not poles:
+        return np.zeros((s.size, 0), complex)
+    return np.column_stack([mode_basis(s, f, z, power)[:, 0] for f, z in poles])
+
+
 @dataclass(frozen=True, eq=False)
 class ExtraModes:
     """What the comparison models in by elimination: modes the model lacks, each with a
@@ -115,8 +123,7 @@ class ExtraModes:
             extra = 0 if mounting is None else mounting[j].shape[3]
             Q = np.zeros(shape + (2 * len(poles) + extra,), dtype=complex)
             for o, x in enumerate(t.sensors):
-                g = np.column_stack([mode_basis(s, f, z, _POWERS[x.quantity])[:, 0]
-                                     for f, z in poles]) if poles else np.zeros((s.size, 0))
+                g = pole_columns(s, poles, _POWERS[x.quantity])
                 for i in range(shape[2]):
                     cols = [g, 1j * g]
                     if extra:
@@ -649,5 +656,5 @@ def refit_error(exc: Exception) -> str:
 
 
 __all__ = ["APPENDED_PARAMETERS", "ExtraModes", "Fit", "Problem", "candidate_columns", "covariance",
-           "evaluate", "fit", "fit_magnitude", "mode_basis", "refit_error", "score", "stack",
-           "with_mounting", "with_offsets"]
+           "evaluate", "fit", "fit_magnitude", "mode_basis", "pole_columns", "refit_error",
+           "score", "stack", "with_mounting", "with_offsets"]

@@ -167,7 +167,7 @@ def mounting_check(problem, current, noise: float) -> MountingCheck | None:
     extra = problem.extra
     if extra is None or not extra.mounted:
         return None
-    from truthbench.diagnose.fit import _POWERS, ExtraModes, mode_basis
+    from truthbench.diagnose.fit import _POWERS, ExtraModes, pole_columns
 
     poles = extra.poles
     plain = replace(problem, extra=ExtraModes.build(poles, problem.tests, problem.weights)
@@ -185,8 +185,7 @@ def mounting_check(problem, current, noise: float) -> MountingCheck | None:
         start += size
         s = 2j * np.pi * t.freq_hz + t.decay_rad_s
         for o, x in enumerate(t.sensors):
-            g = np.column_stack([mode_basis(s, f, z, _POWERS[x.quantity])[:, 0]
-                                 for f, z in poles]) if poles else np.zeros((s.size, 0))
+            g = pole_columns(s, poles, _POWERS[x.quantity])
             for i, a in enumerate(t.actuators):
                 if not np.any(cols[:, o, i]):
                     continue
