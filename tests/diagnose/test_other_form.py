@@ -90,8 +90,10 @@ def test_a_clean_truth_of_another_form_finds_nothing(tube):
     diag = _diagnose(tube, data, mounting=True)
     assert diag.found == ()
     assert len(diag.mounting.paths) == 4
-    # within 15 %: the noise, and the truth's cross-axis path (2 % of the lateral
-    # motion the 2-degree tilt drives), which the comparison leaves out
+    # within 15 %: a bound set after measuring 8.6, 8.8, 10.0 and 9.6e-6 (11.5 % at
+    # worst), not derived: it holds the truth's cross-axis path (2 % of the lateral
+    # motion the 2-degree tilt drives), which the comparison leaves out, its three
+    # times finer mesh and the noise
     k = np.array([p[3] for p in diag.mounting.paths])
     np.testing.assert_allclose(k, 0.003 * 0.003 * np.cos(np.deg2rad(2.0)), rtol=0.15)
     assert diag.mounting.drop > 100 * len(k)  # far beyond what noise gives a parameter

@@ -71,7 +71,7 @@ def _mounted(direction: str, quantity: str | None = None) -> bool:
     return direction in PERPENDICULAR and quantity != "strain"
 
 
-def _across(t: PredictedTest, paths: tuple[str, ...]) -> PredictedTest:
+def _twins(t: PredictedTest, paths: tuple[str, ...]) -> PredictedTest:
     """``t`` with each mounted channel replaced by its twin of each path (sensors and
     actuators path by path, in ``paths``' order)."""
     sens = [Sensor(s.station, TWINS[p][s.direction], s.quantity) for p in paths
@@ -101,7 +101,7 @@ def mounting_columns(predictor: FRFPredictor, theta: Mapping[str, float],
         squared) and ``H_across`` (per unit ``l``: per newton) of each sensor and
         actuator; zero for a strain or rotation channel, which has no such path.
     """
-    twins = tuple(_across(t, paths) for t in predictor.tests)
+    twins = tuple(_twins(t, paths) for t in predictor.tests)
     usable = [t for t in twins if t.sensors and t.actuators]
     frfs = iter(FRFPredictor(predictor.plant, predictor.nominal, usable, predictor.effects,
                              predictor.mode_tolerance, predictor.reduced).predict(theta)
